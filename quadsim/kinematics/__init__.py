@@ -1,0 +1,1 @@
+"""Rotations and inverse kinematics (no knowledge of gaits or files)."""
