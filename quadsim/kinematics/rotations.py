@@ -196,12 +196,15 @@ def euler_from_matrices(R: np.ndarray, order: str) -> np.ndarray:
     # parity: +1 for cyclic orders (XYZ, YZX, ZXY), -1 otherwise
     sign = 1.0 if (b - a) % 3 == 1 else -1.0
     R = np.asarray(R, dtype=float)
-    sb = np.clip(sign * R[..., a, c], -1.0, 1.0)
-    beta = np.arcsin(sb)
+    # beta from atan2(sin, cos) rather than arcsin: arcsin loses half the digits
+    # near +-90 degrees, and a lock test on sin(beta) then fires up to ~1e-6 rad
+    # away from the lock, leaving round-trip errors of ~1e-7.
+    cb = np.hypot(R[..., a, a], R[..., a, b])
+    beta = np.arctan2(sign * R[..., a, c], cb)
     alpha = np.arctan2(-sign * R[..., b, c], R[..., c, c])
     gamma = np.arctan2(-sign * R[..., a, b], R[..., a, a])
     # gimbal lock: cos(beta) ~ 0, put everything into alpha
-    lock = np.abs(sb) > 1.0 - 1e-12
+    lock = cb < 4.0 * np.finfo(float).eps
     if np.any(lock):
         alpha_l = np.arctan2(sign * R[..., c, b], R[..., b, b])
         alpha = np.where(lock, alpha_l, alpha)

@@ -174,9 +174,25 @@ class Character:
 
 # ---------------------------------------------------------------- loading
 def list_characters() -> list[str]:
-    """Identifiers of the shipped characters (the ``*.toml`` files in ``characters/``)."""
+    """Identifiers of the shipped characters (the ``*.toml`` files in ``characters/``).
+
+    Other data files in that folder are skipped: ``gaits.toml`` (the shared
+    gait tables) and any valid TOML file without a ``[character]`` table. A
+    file that is not valid TOML is listed, so that loading it reports the error.
+    """
     d = characters_dir()
-    return sorted(p.stem for p in d.glob("*.toml"))
+    out = []
+    for p in d.glob("*.toml"):
+        if p.name == "gaits.toml":
+            continue
+        try:
+            data = tomllib.loads(p.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+            out.append(p.stem)
+            continue
+        if isinstance(data.get("character"), dict):
+            out.append(p.stem)
+    return sorted(out)
 
 
 def load_character(name_or_path: str | os.PathLike) -> Character:
@@ -202,7 +218,10 @@ _CACHE: dict[str, Character] = {}
 
 
 def _cached_load(path: str) -> Character:
-    key = (path, os.stat(path).st_mtime_ns)
+    try:
+        key = (path, os.stat(path).st_mtime_ns)
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such character file") from None
     hit = _CACHE.get(path)
     if hit is not None and getattr(hit, "_key", None) == key:
         return hit
@@ -352,17 +371,18 @@ def character_from_dict(data: dict, src: str = "<character>") -> Character:
     limits = {}
     for n, lim in data.get("limits", {}).items():
         j = idx(n, f"{src}: limits")
-        if (not isinstance(lim, list) or len(lim) != 2 or not lim[0] < lim[1]):
+        if (not isinstance(lim, list) or len(lim) != 2
+                or not all(isinstance(x, (int, float)) for x in lim) or not lim[0] < lim[1]):
             raise InputError(f"{src}: limits.{n} must be [min_deg, max_deg] with min < max")
         limits[j] = (np.radians(lim[0]), np.radians(lim[1]))
-    mass = float(_need(meta, "mass", f"{src}: [character]"))
-    if not mass > 0:
-        raise InputError(f"{src}: character.mass must be positive (kg)")
+    mass = _need(meta, "mass", f"{src}: [character]")
+    if not isinstance(mass, (int, float)) or not mass > 0:
+        raise InputError(f"{src}: character.mass must be a positive number (kg), got {mass!r}")
     return Character(
         id=str(_need(meta, "id", f"{src}: [character]", str)),
         name=str(meta.get("name", meta["id"])),
         species=str(meta.get("species", "")),
-        mass=mass,
+        mass=float(mass),
         skeleton=skel,
         legs=tuple(legs),
         spine=spine,

@@ -1,0 +1,865 @@
+"""Quality measured from a produced motion: footfalls, sliding, penetration, smoothness.
+
+Everything here is computed from joint world positions and local rotations,
+never from a generator's own contact flags. Arrays follow the package
+conventions: time leads, legs are ordered LF, RF, LH, RH, positions are
+``(..., 3)`` in metres with +Y up (the ground is ``y = 0``), quaternions are
+``(w, x, y, z)``. Times are seconds from the first frame given.
+
+Contacts and their timing
+-------------------------
+A foot is *in contact* on a frame when it is low (``y - ground <= height``) and
+still (horizontal speed ``<= speed``, the smaller of the speeds to the previous
+and to the next frame, so that the touchdown frame and the last stance frame
+both count as still). Runs shorter than ``min_frames`` are then cleaned: interior
+gaps shorter than ``min_frames`` are filled first, then contacts shorter than
+``min_frames`` are dropped. The default thresholds scale with the animal (see
+:func:`default_contact_thresholds`).
+
+Each contact is finally trimmed to the frames on which the foot is *on the
+ground*: at its planted height (the median of the contact's heights) within a
+band of three times their median absolute deviation -- the foot's jitter --
+bounded to [10 micrometres, ``tolerance``]. A foot that is low and slow but still
+descending or already rising is thus not in contact, and its travel is not
+counted as sliding; a clean planted foot is in contact exactly while it sits
+at its planted height.
+
+Touchdown and lift-off times refine the contact frames when the foot positions
+are given: the touchdown is extrapolated from the last frame above the band,
+in a straight line at the foot's descent rate, to the instant it reaches the
+planted height (at most two frames on); lift-off likewise, backwards from the
+first frame above the band. On smooth swing arcs this is within a few
+hundredths of a frame, and within a quarter of a frame when a swing lasts only
+four frames. From a contact array alone, touchdown is ``start / fps`` and
+lift-off ``end / fps`` (``end`` exclusive), which overstates each stance by up
+to a frame. A contact already under way at the first frame has an
+unknown touchdown (NaN), and one still under way at the last frame an unknown
+lift-off.
+
+A *stride* of a foot runs from one of its touchdowns to the next. Duty
+factors, stride frequencies and phases use whole strides only.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from quadsim.frames import GRAVITY, LEGS, X, Y, Z
+
+__all__ = [
+    "angular_acceleration", "angular_velocity", "angular_velocity_vectors",
+    "body_span", "contact_intervals", "default_contact_thresholds", "duty_factors",
+    "foot_contacts", "foot_slide", "format_report", "ground_penetration", "motion_report",
+    "penetration_depth", "phases", "report_from_positions", "root_speed",
+    "stance_intervals", "stride_frequency", "stride_length", "stride_table",
+    "touchdown_times",
+]
+
+#: Contact height threshold as a fraction of the body span, and its bounds (m).
+HEIGHT_FRACTION = 0.02
+HEIGHT_BOUNDS = (0.005, 0.03)
+#: Contact speed threshold as a multiple of sqrt(g * span) (a Froude-scaled speed).
+SPEED_FROUDE = 0.25
+#: On-ground band above a contact's planted height: a fraction of the height
+#: threshold, at least TOLERANCE_FLOOR (m).
+TOLERANCE_FRACTION = 0.1
+TOLERANCE_FLOOR = 0.001
+#: Narrowest on-ground band (m): numerical noise of a planted foot.
+GROUND_BAND_FLOOR = 1e-5
+#: Shortest contact (and shortest gap inside one) kept, in frames.
+MIN_FRAMES = 2
+_LH = LEGS.index("LH")
+
+
+# ------------------------------------------------------------- validation
+def _check_fps(fps) -> float:
+    f = float(fps)
+    if not np.isfinite(f) or f <= 0:
+        raise ValueError(f"`fps` must be a positive number, got {fps!r}")
+    return f
+
+
+def _check_feet(feet, name: str = "feet") -> np.ndarray:
+    a = np.asarray(feet, dtype=float)
+    if a.ndim != 3 or a.shape[1:] != (4, 3):
+        raise ValueError(f"`{name}` has shape {a.shape}, expected (T, 4, 3)")
+    return a
+
+
+def _check_contacts(contacts, T: int | None = None) -> np.ndarray:
+    c = np.asarray(contacts)
+    if c.ndim != 2 or c.shape[1] != 4 or (T is not None and c.shape[0] != T):
+        want = "T" if T is None else str(T)
+        raise ValueError(f"`contacts` has shape {c.shape}, expected ({want}, 4)")
+    return c.astype(bool)
+
+
+def _horizontal(p: np.ndarray) -> np.ndarray:
+    """The ground-plane components (X, Z) of positions ``(..., 3)``."""
+    return p[..., [X, Z]]
+
+
+# ---------------------------------------------------------------- contacts
+def body_span(feet) -> float:
+    """Typical horizontal distance between the fore and the hind feet (m).
+
+    The median over frames of the distance between the midpoint of the fore
+    feet (LF, RF) and that of the hind feet (LH, RH): about the body length,
+    which for quadrupeds is close to the hip height. It sets the scale of the
+    default contact thresholds.
+
+    Parameters
+    ----------
+    feet : array-like, shape (T, 4, 3)
+    """
+    f = _check_feet(feet)
+    if len(f) == 0:
+        return 0.0
+    fore = _horizontal(f[:, :2].mean(axis=1))
+    hind = _horizontal(f[:, 2:].mean(axis=1))
+    return float(np.median(np.linalg.norm(fore - hind, axis=-1)))
+
+
+def default_contact_thresholds(feet) -> tuple[float, float]:
+    """The contact thresholds :func:`foot_contacts` uses when none are given.
+
+    With ``s`` the :func:`body_span`: height ``0.02 s`` bounded to
+    [5 mm, 30 mm] (1.4 cm for a leopard, 2.6 cm for a horse, the 5 mm floor for
+    a cub), well under any swing clearance (about a tenth of the hip height);
+    speed ``0.25 sqrt(g max(s, 0.1 m))`` (about 0.65 m/s for a leopard, 0.9 m/s for a horse):
+    Froude-scaled like the gaits, far above a planted foot's speed (~0) and
+    below a swinging foot's (its mean is the body speed / (1 - duty)).
+
+    Returns
+    -------
+    height : float
+        Metres above the ground.
+    speed : float
+        Horizontal speed (m/s).
+    """
+    s = body_span(feet)
+    height = float(np.clip(HEIGHT_FRACTION * s, *HEIGHT_BOUNDS))
+    speed = SPEED_FROUDE * math.sqrt(GRAVITY * max(s, 0.1))
+    return height, speed
+
+
+def _runs(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and (exclusive) ends of the True runs of a 1-D bool array."""
+    d = np.diff(np.concatenate([[0], mask.astype(np.int8), [0]]))
+    return np.flatnonzero(d == 1), np.flatnonzero(d == -1)
+
+
+def _ranges_mask(starts: np.ndarray, ends: np.ndarray, T: int) -> np.ndarray:
+    """Bool (T,) true on every frame of the half-open ranges [start, end)."""
+    delta = np.zeros(T + 1, dtype=np.int64)
+    np.add.at(delta, starts, 1)
+    np.add.at(delta, ends, -1)
+    return np.cumsum(delta[:-1]) > 0
+
+
+def _debounce(c: np.ndarray, min_frames: int) -> np.ndarray:
+    """Fill interior gaps, then drop contacts, shorter than ``min_frames``."""
+    T = len(c)
+    s, e = _runs(~c)
+    short = (s > 0) & (e < T) & (e - s < min_frames)
+    c = c | _ranges_mask(s[short], e[short], T)
+    s, e = _runs(c)
+    short = e - s < min_frames
+    return c & ~_ranges_mask(s[short], e[short], T)
+
+
+def _tolerance(height: float) -> float:
+    return max(TOLERANCE_FRACTION * height, TOLERANCE_FLOOR)
+
+
+def foot_contacts(feet, fps, *, height: float | None = None, speed: float | None = None,
+                  min_frames: int = MIN_FRAMES, tolerance: float | None = None,
+                  ground: float = 0.0) -> np.ndarray:
+    """Which feet touch the ground on each frame, from their positions.
+
+    Parameters
+    ----------
+    feet : array-like, shape (T, 4, 3)
+        World positions of the foot contact joints (m), legs LF, RF, LH, RH.
+    fps : float
+        Frames per second.
+    height : float, optional
+        A foot is low when ``y - ground <= height`` (m). Default: see
+        :func:`default_contact_thresholds`.
+    speed : float, optional
+        A foot is still when its horizontal speed is ``<= speed`` (m/s); the
+        speed of a frame is the smaller of the speeds over the step before and
+        the step after it. Default: see :func:`default_contact_thresholds`.
+    min_frames : int
+        Interior gaps shorter than this are filled, then contacts shorter than
+        this removed (default 2: one-frame blips and gaps). 1 keeps the raw test.
+    tolerance : float, optional
+        Widest on-ground band (m): each contact is then trimmed at both ends
+        to the frames within a band above its planted height (the median of
+        its heights, their minimum for a contact cut by the clip's first or
+        last frame) of three times the heights' median absolute deviation,
+        bounded to [10 micrometres, ``tolerance``] (see the module notes).
+        Default ``max(0.1 * height, 1 mm)``. Contacts shorter than
+        ``min_frames`` after trimming are removed.
+    ground : float
+        Height of the ground (m).
+
+    Returns
+    -------
+    contacts : ndarray of bool, shape (T, 4)
+    """
+    f = _check_feet(feet)
+    fps = _check_fps(fps)
+    if int(min_frames) < 1:
+        raise ValueError(f"`min_frames` must be at least 1, got {min_frames!r}")
+    T = len(f)
+    if T == 0:
+        return np.zeros((0, 4), dtype=bool)
+    h0, v0 = default_contact_thresholds(f)
+    height = h0 if height is None else float(height)
+    speed = v0 if speed is None else float(speed)
+    low = f[..., Y] - ground <= height
+    step = np.linalg.norm(np.diff(_horizontal(f), axis=0), axis=-1) * fps  # (T-1, 4)
+    inf = np.full((1, 4), np.inf)
+    v = np.minimum(np.concatenate([inf, step]), np.concatenate([step, inf]))
+    c = low & (v <= speed)
+    tol = _tolerance(height) if tolerance is None else float(tolerance)
+    min_frames = int(min_frames)
+    out = np.zeros_like(c)
+    for i in range(4):
+        ci = _debounce(c[:, i], min_frames) if min_frames > 1 else c[:, i]
+        s, e = _runs(ci)
+        if len(s):
+            _, _, k0, k1 = _planted(f[:, i, Y], s, e, tol)
+            keep = k1 + 1 - k0 >= min_frames
+            out[:, i] = _ranges_mask(k0[keep], k1[keep] + 1, T)
+    return out
+
+
+def contact_intervals(contacts) -> list[list[tuple[int, int]]]:
+    """Contact intervals of each foot as ``(start_frame, end_frame_exclusive)``.
+
+    Parameters
+    ----------
+    contacts : array-like of bool, shape (T, 4)
+
+    Returns
+    -------
+    intervals : list of 4 lists of (int, int)
+        In leg order LF, RF, LH, RH.
+    """
+    c = _check_contacts(contacts)
+    out = []
+    for i in range(4):
+        s, e = _runs(c[:, i])
+        out.append([(int(a), int(b)) for a, b in zip(s, e)])
+    return out
+
+
+def _events(contacts, fps, feet=None, tolerance=None) -> list[dict]:
+    """Per foot: contact frames ``s``, ``e`` and times ``on``, ``off`` (s)."""
+    c = _check_contacts(contacts)
+    fps = _check_fps(fps)
+    T = len(c)
+    if feet is not None:
+        f = _check_feet(feet)
+        if len(f) != T:
+            raise ValueError(f"`feet` has {len(f)} frames but `contacts` has {T}")
+        if tolerance is None:
+            tolerance = _tolerance(default_contact_thresholds(f)[0])
+    out = []
+    for i in range(4):
+        s, e = _runs(c[:, i])
+        if feet is None or len(s) == 0:
+            on, off = s.astype(float), e.astype(float)
+        else:
+            on, off = _refine(f[:, i, Y], s, e, float(tolerance))
+        on = np.where(s == 0, np.nan, on / fps)
+        off = np.where(e == T, np.nan, off / fps)
+        out.append({"s": s, "e": e, "on": on, "off": off})
+    return out
+
+
+def _group_medians(values: np.ndarray, groups: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """Lower median of ``values`` per group; ``groups`` ascending ids 0..n-1 of the given sizes."""
+    order = np.lexsort((values, groups))
+    first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+    return values[order][first + (sizes - 1) // 2]
+
+
+def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
+    """Planted height and first/last on-ground frame of the contacts [s, e) of one foot.
+
+    The planted height is the (lower) median of the contact's heights -- or
+    their minimum when the clip cuts the contact, which may then hold little
+    besides a foot still descending or already rising. A frame is on the
+    ground within a band above it of three times the median absolute
+    deviation of the contact's heights (the foot's jitter), at least
+    ``GROUND_BAND_FLOOR`` and at most ``tol``.
+
+    Returns
+    -------
+    base, band : ndarray, shape (n,)
+        Planted height and on-ground band (m).
+    k0, k1 : ndarray of int, shape (n,)
+        First and last on-ground frame.
+    """
+    T = len(y)
+    frame = np.arange(T)
+    contact = _ranges_mask(s, e, T)
+    ids = np.maximum(np.searchsorted(s, frame, side="right") - 1, 0)
+    cf = frame[contact]
+    sizes = e - s
+    base = _group_medians(y[cf], ids[cf], sizes)
+    cut = (s == 0) | (e == T)
+    if cut.any():
+        base = np.where(cut, np.minimum.reduceat(np.where(contact, y, np.inf), s), base)
+    mad = _group_medians(np.abs(y[cf] - base[ids[cf]]), ids[cf], sizes)
+    band = np.clip(3.0 * mad, GROUND_BAND_FLOOR, max(tol, GROUND_BAND_FLOOR))
+    on = contact & (y <= (base + band)[ids])
+    k0 = np.minimum.reduceat(np.where(on, frame, T), s)
+    k1 = np.maximum.reduceat(np.where(on, frame, -1), s)
+    return base, band, k0, k1
+
+
+def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
+    """Sub-frame touchdown and lift-off (in frames) of the contacts [s, e) of one foot.
+
+    Touchdown: from the last frame ``a`` above the on-ground band, the foot
+    descends in a straight line to its planted height at the faster of its
+    descent rates over the step before ``a`` and the step after it; the result
+    is kept within ``[a, a + 2]``. Lift-off is the mirror image.
+    """
+    T = len(y)
+    base, band, k0, k1 = _planted(y, s, e, tol)
+    on, off = k0.astype(float), k1.astype(float)
+    # touchdown
+    a = k0 - 1
+    ok = (a >= 0) & (y[np.maximum(a, 0)] > base + band)
+    a = np.maximum(a, 0)
+    rate = y[a] - y[k0]
+    rate = np.where(a >= 1, np.maximum(rate, y[np.maximum(a - 1, 0)] - y[a]), rate)
+    frac = np.divide(y[a] - base, rate, out=np.ones_like(rate), where=rate > 0)
+    on = np.where(ok, a + np.clip(frac, 0.0, 2.0), on)
+    # lift-off
+    b = k1 + 1
+    ok = (b < T) & (y[np.minimum(b, T - 1)] > base + band)
+    b = np.minimum(b, T - 1)
+    rate = y[b] - y[k1]
+    rate = np.where(b + 1 < T, np.maximum(rate, y[np.minimum(b + 1, T - 1)] - y[b]), rate)
+    frac = np.divide(y[b] - base, rate, out=np.ones_like(rate), where=rate > 0)
+    off = np.where(ok, b - np.clip(frac, 0.0, 2.0), off)
+    return on, off
+
+
+def stance_intervals(contacts, fps, feet=None, *, tolerance: float | None = None
+                     ) -> list[np.ndarray]:
+    """Touchdown and lift-off time of every contact of each foot.
+
+    Parameters
+    ----------
+    contacts : array-like of bool, shape (T, 4)
+    fps : float
+    feet : array-like, shape (T, 4, 3), optional
+        Foot positions; when given, times are refined below a frame (see the
+        module notes), otherwise they are contact frame boundaries / fps.
+    tolerance : float, optional
+        Widest on-ground band (m), as in :func:`foot_contacts` (same default).
+
+    Returns
+    -------
+    intervals : list of 4 ndarrays, shape (n_i, 2)
+        ``[touchdown, liftoff]`` in seconds; NaN where the clip cuts the contact.
+    """
+    return [np.stack([ev["on"], ev["off"]], axis=-1)
+            for ev in _events(contacts, fps, feet, tolerance)]
+
+
+def touchdown_times(contacts, fps, feet=None, *, tolerance=None) -> list[np.ndarray]:
+    """Observed touchdown times (s) of each foot, a list of 4 ascending arrays."""
+    return [iv[np.isfinite(iv[:, 0]), 0]
+            for iv in stance_intervals(contacts, fps, feet, tolerance=tolerance)]
+
+
+# ---------------------------------------------------------- stride figures
+def stride_table(contacts, fps, feet=None, *, tolerance=None) -> dict[str, np.ndarray]:
+    """One row per whole stride of every foot.
+
+    Parameters
+    ----------
+    contacts : array-like of bool, shape (T, 4)
+    fps : float
+    feet : array-like, shape (T, 4, 3), optional
+        Refines the timing and gives the stride lengths.
+
+    Returns
+    -------
+    table : dict of str to ndarray, shape (n,)
+        ``leg`` (index into LF, RF, LH, RH), ``touchdown``, ``liftoff`` and
+        ``next_touchdown`` (s), ``period`` (s), ``stance`` (s), ``duty``, and
+        ``length`` (m): the horizontal distance between the foot's planted
+        positions (at the middle frame of each contact) of this contact and the
+        next (NaN without ``feet``). Rows are sorted by leg, then time.
+    """
+    evs = _events(contacts, fps, feet, tolerance)
+    return _table(evs, None if feet is None else _check_feet(feet))
+
+
+def _table(evs: list[dict], f: np.ndarray | None) -> dict[str, np.ndarray]:
+    rows = []
+    for i, ev in enumerate(evs):
+        on, off = ev["on"], ev["off"]
+        k = np.flatnonzero(np.isfinite(on[:-1]))
+        mid = (ev["s"] + ev["e"]) // 2
+        if f is None:
+            length = np.full(len(k), np.nan)
+        else:
+            p = _horizontal(f[mid, i])
+            length = np.linalg.norm(p[k + 1] - p[k], axis=-1)
+        rows.append((np.full(len(k), i), on[k], off[k], on[k + 1], length))
+    leg, td, lo, nxt, length = (np.concatenate(col) for col in zip(*rows))
+    period = nxt - td
+    stance = lo - td
+    return {"leg": leg.astype(np.int64), "touchdown": td, "liftoff": lo,
+            "next_touchdown": nxt, "period": period, "stance": stance,
+            "duty": stance / period, "length": length}
+
+
+def duty_factors(contacts, fps, feet=None, *, tolerance=None) -> np.ndarray:
+    """Duty factor of each foot over its whole strides.
+
+    The stance time summed over the strides from the foot's first to its last
+    observed touchdown, divided by that span (the duration-weighted mean of
+    the per-stride duty factors in :func:`stride_table`).
+
+    Returns
+    -------
+    duty : ndarray, shape (4,)
+        NaN for a foot without one whole stride.
+    """
+    return _duty(stride_table(contacts, fps, feet, tolerance=tolerance))
+
+
+def _duty(t: dict) -> np.ndarray:
+    stance = np.bincount(t["leg"], t["stance"], minlength=4)
+    period = np.bincount(t["leg"], t["period"], minlength=4)
+    return np.divide(stance, period, out=np.full(4, np.nan), where=period > 0)
+
+
+def phases(contacts, fps, feet=None, *, tolerance=None) -> np.ndarray:
+    """Mean touchdown phase of each foot relative to the left hind.
+
+    For each stride ``[t0, t1)`` of the left hind (LH), each touchdown ``t`` of
+    another foot inside it gives ``(t - t0) / (t1 - t0)``; the phases of a foot
+    are averaged on the unit circle (so 0.98 and 0.02 average to 0).
+
+    Returns
+    -------
+    phase : ndarray, shape (4,)
+        In [0, 1), leg order LF, RF, LH, RH; LH is 0. NaN for a foot with no
+        touchdown inside a whole LH stride (or all LH without one).
+    """
+    return _phases(touchdown_times(contacts, fps, feet, tolerance=tolerance))
+
+
+def _phases(td: list[np.ndarray]) -> np.ndarray:
+    ref = td[_LH]
+    out = np.full(4, np.nan)
+    if len(ref) < 2:
+        return out
+    for i, t in enumerate(td):
+        k = np.searchsorted(ref, t, side="right") - 1
+        ok = (k >= 0) & (k < len(ref) - 1)
+        if not ok.any():
+            continue
+        k, t = k[ok], t[ok]
+        ph = (t - ref[k]) / (ref[k + 1] - ref[k])
+        ang = np.angle(np.mean(np.exp(2j * np.pi * ph)))
+        out[i] = (ang / (2 * np.pi)) % 1.0
+    out[_LH] = 0.0
+    return np.where(out > 1.0 - 1e-9, 0.0, out)
+
+
+def stride_frequency(contacts, fps, feet=None, *, tolerance=None) -> float:
+    """Strides per second (Hz) from the left hind's touchdowns (NaN if < 2)."""
+    return _frequency(touchdown_times(contacts, fps, feet, tolerance=tolerance)[_LH])
+
+
+def _frequency(t: np.ndarray) -> float:
+    if len(t) < 2:
+        return float("nan")
+    return float((len(t) - 1) / (t[-1] - t[0]))
+
+
+def stride_length(root_positions, contacts, fps, feet=None, *, tolerance=None) -> float:
+    """Mean horizontal distance the root travels per left-hind stride (m).
+
+    The root's horizontal path length between consecutive left-hind
+    touchdowns (interpolated between frames), averaged; on a curve this is the
+    distance along the path. NaN with fewer than two touchdowns.
+
+    Parameters
+    ----------
+    root_positions : array-like, shape (T, 3)
+    contacts : array-like of bool, shape (T, 4)
+    fps : float
+    feet : array-like, shape (T, 4, 3), optional
+    """
+    root = np.asarray(root_positions, dtype=float)
+    c = _check_contacts(contacts)
+    if root.shape != (len(c), 3):
+        raise ValueError(f"`root_positions` has shape {root.shape}, expected ({len(c)}, 3)")
+    fps = _check_fps(fps)
+    return _length(root, touchdown_times(c, fps, feet, tolerance=tolerance)[_LH], fps)
+
+
+def _length(root: np.ndarray, t: np.ndarray, fps: float) -> float:
+    if len(t) < 2:
+        return float("nan")
+    step = np.linalg.norm(np.diff(_horizontal(root), axis=0), axis=-1)
+    path = np.concatenate([[0.0], np.cumsum(step)])
+    s = np.interp(t * fps, np.arange(len(root)), path)
+    return float((s[-1] - s[0]) / (len(t) - 1))
+
+
+# ------------------------------------------------- sliding and penetration
+def foot_slide(feet, contacts) -> tuple[list[np.ndarray], float]:
+    """How far each foot slides on the ground during each of its contacts.
+
+    The slide of a contact is the largest horizontal distance of the foot from
+    where it was on the contact's first frame, over the contact's frames (not
+    the path length: jitter back and forth does not add up).
+
+    Parameters
+    ----------
+    feet : array-like, shape (T, 4, 3)
+    contacts : array-like of bool, shape (T, 4)
+
+    Returns
+    -------
+    slides : list of 4 ndarrays, shape (n_i,)
+        Per contact, in time order (m).
+    max_slide : float
+        The largest over all feet (m), 0 without contacts.
+    """
+    f = _check_feet(feet)
+    c = _check_contacts(contacts, len(f))
+    T = len(f)
+    slides = []
+    for i in range(4):
+        s, e = _runs(c[:, i])
+        if len(s) == 0:
+            slides.append(np.zeros(0))
+            continue
+        start = s[np.maximum(np.searchsorted(s, np.arange(T), side="right") - 1, 0)]
+        d = np.linalg.norm(_horizontal(f[:, i] - f[start, i]), axis=-1)
+        slides.append(np.maximum.reduceat(np.where(c[:, i], d, 0.0), s))
+    top = max((float(x.max()) for x in slides if len(x)), default=0.0)
+    return slides, top
+
+
+def penetration_depth(positions, *, ground: float = 0.0) -> np.ndarray:
+    """Depth of each point below the ground (m, 0 above it).
+
+    Parameters
+    ----------
+    positions : array-like, shape (..., 3)
+
+    Returns
+    -------
+    depth : ndarray, shape (...)
+    """
+    p = np.asarray(positions, dtype=float)
+    if p.shape[-1:] != (3,):
+        raise ValueError(f"`positions` has shape {p.shape}, expected (..., 3)")
+    return np.maximum(ground - p[..., Y], 0.0)
+
+
+def ground_penetration(positions, *, ground: float = 0.0) -> float:
+    """Deepest any of the given points goes below the ground (m, >= 0)."""
+    d = penetration_depth(positions, ground=ground)
+    return float(d.max()) if d.size else 0.0
+
+
+def root_speed(root_positions, fps) -> tuple[float, np.ndarray]:
+    """Horizontal speed of the root.
+
+    Parameters
+    ----------
+    root_positions : array-like, shape (T, 3)
+    fps : float
+
+    Returns
+    -------
+    mean : float
+        Horizontal path length over the duration (m/s); NaN for T < 2.
+    speeds : ndarray, shape (T - 1,)
+        Speed over each frame step (m/s).
+    """
+    r = np.asarray(root_positions, dtype=float)
+    if r.ndim != 2 or r.shape[1] != 3:
+        raise ValueError(f"`root_positions` has shape {r.shape}, expected (T, 3)")
+    v = np.linalg.norm(np.diff(_horizontal(r), axis=0), axis=-1) * _check_fps(fps)
+    return (float(v.mean()) if len(v) else float("nan")), v
+
+
+# -------------------------------------------------------------- smoothness
+def _quaternions_fps(motion, fps) -> tuple[np.ndarray, float]:
+    if hasattr(motion, "rotations") and hasattr(motion, "fps"):
+        q, fps = motion.rotations, motion.fps if fps is None else fps
+    else:
+        q = motion
+        if fps is None:
+            raise ValueError("`fps` is required when rotations are given as an array")
+    q = np.asarray(q, dtype=float)
+    if q.ndim < 2 or q.shape[-1] != 4:
+        raise ValueError(f"`rotations` has shape {q.shape}, expected (T, J, 4)")
+    return q, _check_fps(fps)
+
+
+def angular_velocity_vectors(motion, fps: float | None = None) -> np.ndarray:
+    """Angular velocity of each joint relative to its parent, as vectors.
+
+    Between frames t and t+1 the local rotation changes by
+    ``dq = q[t+1] * conj(q[t])`` (expressed in the parent's frame); the vector
+    is its axis times its angle (the shorter way round) times ``fps``.
+
+    Parameters
+    ----------
+    motion : Motion or array-like, shape (T, J, 4)
+        A motion, or local quaternions ``(w, x, y, z)``.
+    fps : float, optional
+        Required with an array; overrides the motion's.
+
+    Returns
+    -------
+    omega : ndarray, shape (T - 1, J, 3)
+        rad/s.
+    """
+    q, fps = _quaternions_fps(motion, fps)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    a, b = q[:-1], q[1:]
+    # dq = b * conj(a)
+    w = np.sum(a * b, axis=-1)
+    v = (a[..., :1] * b[..., 1:] - b[..., :1] * a[..., 1:]
+         - np.cross(b[..., 1:], a[..., 1:]))
+    sign = np.where(w < 0, -1.0, 1.0)[..., None]
+    w, v = np.abs(w), v * sign
+    n = np.linalg.norm(v, axis=-1)
+    angle = 2.0 * np.arctan2(n, w)
+    scale = np.divide(angle, n, out=np.full_like(n, 2.0), where=n > 1e-12)
+    return v * scale[..., None] * fps
+
+
+def angular_velocity(motion, fps: float | None = None) -> np.ndarray:
+    """Local angular speed of each joint between consecutive frames.
+
+    ``2 arccos(|<q_t, q_t+1>|) * fps``, computed stably as the norm of
+    :func:`angular_velocity_vectors`.
+
+    Returns
+    -------
+    speed : ndarray, shape (T - 1, J)
+        rad/s.
+    """
+    return np.linalg.norm(angular_velocity_vectors(motion, fps), axis=-1)
+
+
+def angular_acceleration(motion, fps: float | None = None) -> np.ndarray:
+    """Magnitude of the change of each joint's angular velocity vector.
+
+    ``|omega[t+1] - omega[t]| * fps`` with the vectors of
+    :func:`angular_velocity_vectors`, so a joint that reverses its swing shows
+    up even when its angular speed does not change.
+
+    Returns
+    -------
+    accel : ndarray, shape (T - 2, J)
+        rad/s^2.
+    """
+    q, fps = _quaternions_fps(motion, fps)
+    w = angular_velocity_vectors(q, fps)
+    return np.linalg.norm(np.diff(w, axis=0), axis=-1) * fps
+
+
+# ------------------------------------------------------------------ report
+def _num(x) -> float | None:
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_names=None,
+                          start: float = 0.0, height: float | None = None,
+                          speed: float | None = None, min_frames: int = MIN_FRAMES) -> dict:
+    """The quality figures of a motion given as positions (see :func:`motion_report`).
+
+    Parameters
+    ----------
+    feet : array-like, shape (T, 4, 3)
+        Foot joint world positions (m), leg order LF, RF, LH, RH.
+    root_positions : array-like, shape (T, 3)
+        Root world positions (m).
+    fps : float
+    rotations : array-like, shape (T, J, 4), optional
+        Local joint quaternions ``(w, x, y, z)`` for the smoothness figures
+        (None in the report without them).
+    joint_names : sequence of str, length J, optional
+        Names the joints with the largest angular velocity and acceleration.
+    start : float
+        Seconds to skip at the beginning (settling).
+    height, speed, min_frames
+        Contact detection, see :func:`foot_contacts`.
+
+    Returns
+    -------
+    report : dict
+        Plain JSON-serialisable values; figures that cannot be measured are None.
+    """
+    fps = _check_fps(fps)
+    f = _check_feet(feet)
+    root = np.asarray(root_positions, dtype=float)
+    if root.shape != (len(f), 3):
+        raise ValueError(f"`root_positions` has shape {root.shape}, expected ({len(f)}, 3)")
+    if rotations is not None:
+        rotations = np.asarray(rotations, dtype=float)
+        if rotations.ndim != 3 or rotations.shape[0] != len(f) or rotations.shape[2] != 4:
+            raise ValueError(f"`rotations` has shape {rotations.shape}, "
+                             f"expected ({len(f)}, J, 4)")
+    if not (math.isfinite(start) and start >= 0):
+        raise ValueError(f"`start` must be a non-negative number of seconds, got {start!r}")
+    i0 = int(math.ceil(start * fps - 1e-9))
+    if len(f) - i0 < 3:
+        raise ValueError(f"need at least 3 frames after `start` = {start} s; "
+                         f"the motion has {len(f)} frames at {fps:g} fps")
+    f, root = f[i0:], root[i0:]
+    T = len(f)
+    h_used, v_used = default_contact_thresholds(f)
+    h_used = h_used if height is None else float(height)
+    v_used = v_used if speed is None else float(speed)
+    tol = _tolerance(h_used)
+    contacts = foot_contacts(f, fps, height=h_used, speed=v_used, min_frames=min_frames,
+                             tolerance=tol)
+    evs = _events(contacts, fps, f, tol)
+    table = _table(evs, f)
+    duty = _duty(table)
+    t_lh = evs[_LH]["on"][np.isfinite(evs[_LH]["on"])]
+    phase = _phases([ev["on"][np.isfinite(ev["on"])] for ev in evs])
+    slides, max_slide = foot_slide(f, contacts)
+    depth = penetration_depth(f)
+    legs = {}
+    for i, name in enumerate(LEGS):
+        rows = table["leg"] == i
+        st = table["stance"][rows]
+        legs[name] = {
+            "duty_factor": _num(duty[i]),
+            "phase": _num(phase[i]),
+            "strides": int(rows.sum()),
+            "contact_time": _num(st.mean()) if len(st) else None,
+            "max_slide_mm": float(slides[i].max() * 1e3) if len(slides[i]) else None,
+            "mean_slide_mm": float(slides[i].mean() * 1e3) if len(slides[i]) else None,
+            "max_penetration_mm": float(depth[:, i].max() * 1e3),
+        }
+    report = {
+        "fps": fps, "frames": T, "duration": (T - 1) / fps, "start": i0 / fps,
+        "legs": legs,
+        "stride_frequency": _num(_frequency(t_lh)),
+        "stride_length": _num(_length(root, t_lh, fps)),
+        "mean_speed": _num(root_speed(root, fps)[0]),
+        "max_slide_mm": max_slide * 1e3,
+        "max_penetration_mm": float(depth.max() * 1e3),
+        "max_angular_velocity": None, "max_angular_velocity_joint": None,
+        "max_angular_acceleration": None, "max_angular_acceleration_joint": None,
+        "contact_height": h_used, "contact_speed": v_used,
+    }
+    if rotations is not None:
+        w = angular_velocity_vectors(rotations[i0:], fps)
+        for key, val in (("max_angular_velocity", np.linalg.norm(w, axis=-1)),
+                         ("max_angular_acceleration",
+                          np.linalg.norm(np.diff(w, axis=0), axis=-1) * fps)):
+            if val.size:
+                t, j = np.unravel_index(np.argmax(val), val.shape)
+                report[key] = float(val[t, j])
+                report[key + "_joint"] = (str(joint_names[j]) if joint_names is not None
+                                          else int(j))
+    return report
+
+
+def motion_report(motion, *, start: float = 0.0, height: float | None = None,
+                  speed: float | None = None, min_frames: int = MIN_FRAMES) -> dict:
+    """Footfalls, sliding, penetration, speed and smoothness of a motion.
+
+    Parameters
+    ----------
+    motion : Motion
+        Must name its four foot joints (``foot_joints``).
+    start : float
+        Seconds to skip at the beginning (settling).
+    height, speed, min_frames
+        Contact detection, see :func:`foot_contacts`.
+
+    Returns
+    -------
+    report : dict
+        ``fps``, ``frames``, ``duration`` (s) and ``start`` (s) of the part
+        measured; ``legs``: for LF, RF, LH, RH the ``duty_factor``, ``phase``
+        (stride fraction after LH's touchdown), ``strides`` (whole strides),
+        ``contact_time`` (mean stance, s), ``max_slide_mm``, ``mean_slide_mm``,
+        ``max_penetration_mm``; then ``stride_frequency`` (Hz, LH),
+        ``stride_length`` (m of root travel per LH stride), ``mean_speed``
+        (root, m/s), ``max_slide_mm``, ``max_penetration_mm`` (feet),
+        ``max_angular_velocity`` (rad/s) and ``max_angular_acceleration``
+        (rad/s^2) with the joint names, and the ``contact_height`` (m) and
+        ``contact_speed`` (m/s) thresholds used. Unmeasurable figures are None.
+
+    Raises
+    ------
+    ValueError
+        When the motion does not name its foot joints, or is too short.
+    """
+    if getattr(motion, "foot_joints", None) is None:
+        raise ValueError("motion_report needs the motion's foot joints: build the Motion "
+                         "with foot_joints=(LF, RF, LH, RH joint names)")
+    return report_from_positions(
+        motion.foot_positions(), motion.root_positions, motion.fps,
+        rotations=motion.rotations, joint_names=motion.skeleton.names, start=start,
+        height=height, speed=speed, min_frames=min_frames)
+
+
+def format_report(report: dict) -> str:
+    """A plain-text table of a :func:`motion_report`: one row per foot, then totals."""
+    def fmt(x, spec):
+        return "-" if x is None else format(x, spec)
+
+    lines = [f"{report['frames']} frames at {report['fps']:g} fps "
+             f"({report['duration']:.2f} s from {report['start']:.2f} s)", ""]
+    head = (f"{'leg':<4}{'duty':>7}{'phase':>7}{'strides':>9}{'contact s':>11}"
+            f"{'slide max mm':>14}{'slide mean mm':>15}{'below ground mm':>17}")
+    lines += [head, "-" * len(head)]
+    for name, leg in report["legs"].items():
+        lines.append(
+            f"{name:<4}{fmt(leg['duty_factor'], '.3f'):>7}{fmt(leg['phase'], '.3f'):>7}"
+            f"{leg['strides']:>9d}{fmt(leg['contact_time'], '.3f'):>11}"
+            f"{fmt(leg['max_slide_mm'], '.1f'):>14}{fmt(leg['mean_slide_mm'], '.1f'):>15}"
+            f"{fmt(leg['max_penetration_mm'], '.1f'):>17}")
+
+    def joint(key):
+        j = report.get(key + "_joint")
+        return "" if j is None else f"  ({j})"
+
+    lines += [
+        "",
+        f"stride frequency          {fmt(report['stride_frequency'], '.3f')} Hz",
+        f"stride length             {fmt(report['stride_length'], '.3f')} m",
+        f"mean root speed           {fmt(report['mean_speed'], '.3f')} m/s",
+        f"max foot slide            {fmt(report['max_slide_mm'], '.1f')} mm",
+        f"max foot penetration      {fmt(report['max_penetration_mm'], '.1f')} mm",
+        f"max angular velocity      {fmt(report['max_angular_velocity'], '.2f')} rad/s"
+        + joint("max_angular_velocity"),
+        f"max angular acceleration  {fmt(report['max_angular_acceleration'], '.1f')} rad/s^2"
+        + joint("max_angular_acceleration"),
+        f"contact thresholds        {report['contact_height'] * 1e3:.1f} mm, "
+        f"{report['contact_speed']:.2f} m/s",
+    ]
+    return "\n".join(lines)

@@ -1,0 +1,15 @@
+"""Procedural locomotion: CPG, gaits, transitions, spine, foot paths, turning.
+
+Knows nothing of files or screens.
+"""
+
+from quadsim.locomotion.commands import Command, Script
+from quadsim.locomotion.controller import (
+    ControllerSettings,
+    ProceduralController,
+    QuadsimClampWarning,
+    simulate,
+)
+
+__all__ = ["Command", "ControllerSettings", "ProceduralController", "QuadsimClampWarning",
+           "Script", "simulate"]

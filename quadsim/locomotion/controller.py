@@ -1,0 +1,428 @@
+"""The procedural locomotion controller: commands in, poses out.
+
+One :class:`ProceduralController` drives one character. Each call of
+:meth:`ProceduralController.step` advances it by ``dt`` under a
+:class:`~quadsim.locomotion.commands.Command`:
+
+1. speed and turn rate move towards the command (bounded acceleration);
+2. the gait scheduler picks the gait (hysteresis) and blends transitions;
+3. the CPG advances every leg's phase; a leg lifts off when its stride
+   fraction passes the duty factor and touches down when it wraps;
+4. stance feet stay where they landed; swing feet follow Catmull-Rom paths
+   to touchdown points planned about the key points' predicted positions;
+5. the spine bends (compress/stretch or the concave/convex machine) and
+   into the turn; the tail lags behind;
+6. IK poses the legs (:mod:`quadsim.locomotion.posing`).
+
+:func:`simulate` runs a scripted sequence and returns a
+:class:`~quadsim.skeleton.motion.Motion`; the posing of all frames is done
+in one vectorised pass at the end.
+
+Bad commands: a negative or non-finite speed or turn rate raises
+``ValueError`` (:class:`~quadsim.locomotion.commands.Command` checks it); an
+unknown gait raises :class:`~quadsim.errors.InputError`; a speed above the
+character's fastest gait, or a turn rate above its maximum, is clamped with
+a ``QuadsimClampWarning`` that names the value and the limit.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadsim.frames import FORE, GRAVITY, Y, heading_vector, wrap_angle
+from quadsim.kinematics.rotations import quaternions_from_matrices
+from quadsim.locomotion.commands import Command, Script
+from quadsim.locomotion.cpg import TWO_PI, CPGParams, cpg_step
+from quadsim.locomotion.footpath import swing_position
+from quadsim.locomotion.gaits import auto_gaits, gait_table, max_speed, resolve_gait_name
+from quadsim.kinematics.ik import solve_leg
+from quadsim.locomotion.posing import Poser
+from quadsim.locomotion.spine import flex_angle, rate_limited, spine_state, spine_target
+from quadsim.locomotion.transition import GaitScheduler
+from quadsim.locomotion.turning import arc_advance, rotate_y, turn_rate_towards
+from quadsim.skeleton.character import Character
+from quadsim.skeleton.motion import Motion
+
+
+class QuadsimClampWarning(UserWarning):
+    """A command value was outside what the character can do and was clamped."""
+
+
+@dataclass(frozen=True)
+class ControllerSettings:
+    """Tunable constants of the procedural controller.
+
+    Attributes
+    ----------
+    acceleration : float
+        Largest change of forward speed (m/s^2).
+    turn_response : float
+        Time constant of the yaw rate following its command (s).
+    reach_margin : float
+        Fraction of a leg's measured stance sweep a stride may use (room for
+        the body's bob, sway and flexion).
+    max_bend : float
+        Largest spine yaw bend (rad).
+    tail_lag : float
+        Time constant of each tail joint following the one before (s).
+    cpg : CPGParams
+    """
+
+    acceleration: float = 3.0
+    turn_response: float = 0.25
+    reach_margin: float = 0.85
+    max_bend: float = math.radians(35.0)
+    tail_lag: float = 0.08
+    cpg: CPGParams = CPGParams()
+
+
+class ProceduralController:
+    """Interactive procedural locomotion for one character.
+
+    Parameters
+    ----------
+    character : Character
+    dt : float
+        Fixed step (s).
+    seed : int
+        Seeds the small random start offsets of the oscillators.
+    gait : str, optional
+        Starting gait (default: the slowest automatic gait).
+    settings : ControllerSettings, optional
+    """
+
+    def __init__(self, character: Character, dt: float = 1.0 / 60.0, seed: int = 0,
+                 gait: str | None = None, settings: ControllerSettings | None = None):
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+        self.character = character
+        self.dt = float(dt)
+        self.settings = settings or ControllerSettings()
+        self.gaits = gait_table(character)
+        self.auto = auto_gaits(character)
+        start = resolve_gait_name(gait, character) if gait else self.auto[0]
+        self.scheduler = GaitScheduler(self.gaits, self.auto, start)
+        self.poser = Poser.for_character(character)
+        self.max_speed = max_speed(character)
+        self.max_turn_rate = math.radians(float(
+            character.locomotion.get("max_turn_rate_deg_s", 90.0)))
+        self.flexed = math.radians(float(character.locomotion.get("spine_flex_deg", 15.0)))
+        self.extended = math.radians(float(character.locomotion.get("spine_extend_deg", -10.0)))
+        self._warned: set[str] = set()
+        self._geometry()
+        self._init_state(seed)
+
+    # ------------------------------------------------------------ set-up
+    def _geometry(self) -> None:
+        ch = self.character
+        P = ch.skeleton.rest_positions
+        self.h = ch.hip_height
+        self.pelvis_height = float(P[0, Y])
+        pair_top = np.array([leg.chain[leg.ik_start] for leg in ch.legs])
+        self.pair_height = P[pair_top, Y]
+        self.drops = np.linspace(0.0, 0.3, 13)
+        self.half_sweep = self._measure_sweeps(self.drops)
+        # key points: girdle centres on the ground, relative to the pelvis
+        self.hind_z = float(np.mean(P[pair_top[2:], 2]) - P[0, 2])
+        self.body_length = float(np.mean(P[pair_top[:2], 2]) - np.mean(P[pair_top[2:], 2]))
+        feet = ch.rest_foot_positions()
+        self.foot_offset = feet - P[pair_top]  # foot relative to its pair top, per leg
+        self.foot_offset[:, Y] = 0.0
+        self.foot_offset[:, 0] = feet[:, 0]  # lateral offset from the mid-line
+        self.tail_rest = np.zeros((len(ch.tail), 2))
+
+    def _init_state(self, seed: int) -> None:
+        rng = np.random.default_rng(seed)
+        gait = self.gaits[self.scheduler.current]
+        beta = float(gait.duty(gait.speed_range[0]))
+        # start with the left hind in mid-stance, small seeded perturbation
+        self.theta = TWO_PI * (0.5 * beta - gait.phases) + rng.normal(0.0, 0.05, 4)
+        self.r = np.full(4, 1.0) + rng.normal(0.0, 0.02, 4)
+        self.theta_s = np.asarray(self.theta[2] + rng.normal(0.0, 0.05))
+        self.r_s = np.asarray(1.0)
+        self.time = 0.0
+        self.speed = 0.0
+        self.yaw_rate = 0.0
+        self.heading = 0.0
+        self.root_xz = np.array([0.0, 0.0, 0.0])
+        self.bend = 0.0
+        self.spine_angle = 0.0
+        self.spine_smooth = 0.0
+        self.height = self.pelvis_height
+        self.tail = self.tail_rest.copy()
+        self.stance = np.ones(4, dtype=bool)
+        feet = self.character.rest_foot_positions().copy()
+        feet[:, Y] = 0.0
+        self.planted = feet
+        self.liftoff = feet.copy()
+        self.theta_lo = self.theta.copy()
+        self.theta_td = self.theta.copy()
+        self.swing_s = np.zeros(4)
+        self.feet = feet.copy()
+        self.params = self.scheduler.params(0.0)
+        self.freq = 1.0
+
+    # ------------------------------------------------------------ helpers
+    def _warn(self, key: str, msg: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            warnings.warn(msg, QuadsimClampWarning, stacklevel=3)
+
+    def _key_points(self, root_xz, heading, bend):
+        """Hind and fore key points (2, 3) and their headings (2,)."""
+        hind = root_xz + rotate_y(np.array([0.0, 0.0, self.hind_z]), heading)
+        fore = hind + rotate_y(np.array([0.0, 0.0, self.body_length]), heading + 0.5 * bend)
+        return np.stack([hind, fore]), np.array([heading, heading + bend])
+
+    def _measure_sweeps(self, drops: np.ndarray) -> np.ndarray:
+        """Half stance sweep each leg reaches exactly, per body drop, shape (D, 4) (m).
+
+        For each drop (fraction of the pelvis height the body is lowered by),
+        ground targets fore and aft of the rest foot position are tried with
+        the leg IK itself; the result is the largest distance for which every
+        nearer target is reached on both sides.
+        """
+        ch = self.character
+        P = ch.skeleton.rest_positions
+        xs = np.linspace(0.0, 1.5 * self.h, 301)
+        out = np.zeros((len(drops), 4))
+        eye = np.eye(3)
+        for i, geom in enumerate(self.poser.legs):
+            foot = P[ch.legs[i].foot]
+            for d, drop in enumerate(drops):
+                parent = P[geom.parent] - np.array([0.0, drop * self.pelvis_height, 0.0])
+                ok = np.ones(len(xs), dtype=bool)
+                for sign in (-1.0, 1.0):
+                    tgt = np.tile(foot, (len(xs), 1))
+                    tgt[:, 2] += sign * xs
+                    tgt[:, Y] = 0.0
+                    _, err = solve_leg(geom, eye, parent, tgt)
+                    ok &= err < 1e-9
+                bad = np.flatnonzero(~ok)
+                out[d, i] = xs[bad[0] - 1] if len(bad) and bad[0] > 0 else (
+                    0.0 if len(bad) else xs[-1])
+        return out
+
+    def stride_limit(self, duty: float, drop: float) -> float:
+        """Longest stride (m) whose stance sweep every leg reaches at this duty and drop."""
+        half = min(float(np.interp(drop, self.drops, self.half_sweep[:, i])) for i in range(4))
+        return 2.0 * self.settings.reach_margin * half / max(duty, 1e-3)
+
+    # ------------------------------------------------------------ stepping
+    def step(self, command: Command, dt: float | None = None) -> dict:
+        """Advance one step under ``command``; return this frame's plan.
+
+        The plan (a dict of arrays, see :data:`quadsim.locomotion.posing.PLAN_FIELDS`,
+        plus ``contacts``, ``gait``, ``phase``, ``speed``, ``spine``) can be
+        posed with :meth:`pose`.
+        """
+        dt = self.dt if dt is None else float(dt)
+        s = self.settings
+        # 1. speed and turning -------------------------------------------
+        v_cmd = float(command.speed)
+        if v_cmd > self.max_speed:
+            self._warn("speed", f"speed {v_cmd:.2f} m/s is above {self.character.id}'s fastest "
+                       f"gait ({self.max_speed:.2f} m/s); clamped to {self.max_speed:.2f} m/s")
+            v_cmd = self.max_speed
+        dv = np.clip(v_cmd - self.speed, -s.acceleration * dt, s.acceleration * dt)
+        self.speed = max(self.speed + float(dv), 0.0)
+        v = self.speed
+        if command.heading is not None:
+            rate = float(turn_rate_towards(self.heading, command.heading, self.max_turn_rate))
+        else:
+            rate = float(command.turn_rate or 0.0)
+            if abs(rate) > self.max_turn_rate:
+                self._warn("turn", f"turn rate {math.degrees(rate):.1f} deg/s is beyond "
+                           f"{self.character.id}'s maximum "
+                           f"{math.degrees(self.max_turn_rate):.1f} deg/s; clamped")
+                rate = math.copysign(self.max_turn_rate, rate)
+        self.yaw_rate += (rate - self.yaw_rate) * (1.0 - math.exp(-dt / s.turn_response))
+
+        # 2. gait -----------------------------------------------------------
+        if command.gait:
+            wanted = resolve_gait_name(command.gait, self.character)
+        else:
+            wanted = self.scheduler.auto_choice(v)
+        p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3))
+        self.params = p
+        lam = min(p.stride_length(v, self.h), self.stride_limit(p.duty, p.drop))
+        lam_min_speed = min(p.stride_length(p.min_speed, self.h),
+                            self.stride_limit(p.duty, p.drop))
+        self.freq = max(v / lam, p.min_speed / lam_min_speed) if v > 1e-6 else \
+            p.min_speed / lam_min_speed
+        omega = TWO_PI * self.freq
+
+        # 3. CPG ------------------------------------------------------------
+        theta_prev = self.theta
+        self.theta, self.r, self.theta_s, self.r_s = cpg_step(
+            self.theta, self.r, self.theta_s, self.r_s, np.asarray(omega), p.phases, dt, s.cpg)
+        # never let a phase run backwards (strong coupling at a start-up)
+        self.theta = np.maximum(self.theta, theta_prev)
+
+        # 4. body on its path -------------------------------------------------
+        self.heading = self.heading + self.yaw_rate * dt
+        self.root_xz = self.root_xz + v * dt * heading_vector(self.heading - 0.5 *
+                                                               self.yaw_rate * dt)
+        bend_target = np.clip(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
+                              -s.max_bend, s.max_bend)
+        self.bend += (bend_target - self.bend) * (1.0 - math.exp(-dt / 0.2))
+        keys, key_heading = self._key_points(self.root_xz, self.heading, self.bend)
+
+        # 5. feet ---------------------------------------------------------------
+        u = np.mod(self.theta / TWO_PI, 1.0)
+        stance_time = p.duty / self.freq
+        for i in range(4):
+            if self.stance[i]:
+                if u[i] >= p.duty and u[i] < 1.0 and self.theta[i] - self.theta_td[i] > 1e-9:
+                    self.stance[i] = False
+                    self.liftoff[i] = self.planted[i]
+                    self.theta_lo[i] = self.theta[i]
+                    self.theta_td[i] = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + 1.0)
+                    self.swing_s[i] = 0.0
+            if not self.stance[i]:
+                span = self.theta_td[i] - self.theta_lo[i]
+                sp = float(np.clip((self.theta[i] - self.theta_lo[i]) / span, 0.0, 1.0))
+                self.swing_s[i] = max(self.swing_s[i], sp)
+        g = np.where(FORE, 1, 0)
+        remaining = np.maximum(self.theta_td - self.theta, 0.0) / omega
+        tau = remaining + 0.5 * stance_time
+        kp, kh = arc_advance(keys[g], key_heading[g], v, self.yaw_rate, tau)
+        target = kp + rotate_y(self.foot_offset, kh)
+        target[:, Y] = 0.0
+        swinging = ~self.stance
+        step_len = np.linalg.norm(target - self.liftoff, axis=-1)
+        height = np.minimum(p.swing_height, 0.35 * step_len + 0.3 * p.swing_height)
+        pos = swing_position(self.liftoff, target, height, self.swing_s)
+        feet = np.where(swinging[:, None], pos, self.planted)
+        touch = swinging & (self.swing_s >= 1.0 - 1e-12)
+        if np.any(touch):
+            self.planted[touch] = target[touch]
+            feet[touch] = target[touch]
+            self.stance[touch] = True
+        self.feet = feet
+        fold_amount = np.where(self.stance, 0.0, np.sin(np.pi * self.swing_s) ** 2)
+
+        # 6. spine, height, tail --------------------------------------------------
+        fore_down = bool(self.stance[0] or self.stance[1])
+        hind_down = bool(self.stance[2] or self.stance[3])
+        state = spine_state(fore_down, hind_down)
+        tgt = float(spine_target(state, self.flexed, self.extended))
+        rate = 3.0 * abs(self.flexed - self.extended) * self.freq
+        self.spine_angle = float(rate_limited(self.spine_angle, tgt, rate, dt))
+        bound_angle = self.spine_angle
+        slow_angle = float(flex_angle(self.theta_s, p.spine_amplitude))
+        raw = p.bound * bound_angle + (1.0 - p.bound) * slow_angle
+        self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.04))
+        support = np.where(self.stance, np.sin(np.pi * np.clip(u / max(p.duty, 1e-3), 0, 1)), 0)
+        bob = 0.6 * p.drop * self.h * (0.5 - float(np.mean(support)))
+        target_h = self.pelvis_height * (1.0 - p.drop) + bob
+        self.height += (target_h - self.height) * (1.0 - math.exp(-dt / 0.05))
+        # girdle sway from where the left and right feet are (seed figure 5)
+        local = rotate_y(self.feet - keys[g], -key_heading[g])
+        width = np.maximum(np.abs(local[[0, 2], 0] - local[[1, 3], 0]), 1e-3)
+        sway = 0.25 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2], width)[::-1]
+        # tail: each joint follows the one before with a lag
+        n_tail = len(self.tail)
+        if n_tail:
+            drive = np.array([0.6 * self.spine_smooth - 0.02 * v,
+                              -0.8 * self.bend - 0.5 * sway[0]]) / n_tail
+            a = 1.0 - math.exp(-dt / s.tail_lag)
+            prev = np.vstack([drive, self.tail[:-1]])
+            self.tail = self.tail + a * (prev - self.tail)
+
+        self.time += dt
+        root = np.array([self.root_xz[0], self.height, self.root_xz[2]])
+        root = root + rotate_y(np.array([0.0, 0.0, 0.0]), self.heading)
+        return {
+            "root": root,
+            "heading": np.asarray(self.heading),
+            "pitch": np.asarray(0.0),
+            "sway": sway,
+            "bend_yaw": np.asarray(self.bend),
+            "bend_pitch": np.asarray(self.spine_smooth),
+            "feet": self.feet.copy(),
+            "fold": fold_amount,
+            "toe": 0.5 * fold_amount,
+            "tail": self.tail.copy(),
+            "look": np.asarray(0.5 * self.bend),
+            "contacts": self.stance.copy(),
+            "gait": self.scheduler.label,
+            "phase": np.mod(self.theta / TWO_PI, 1.0),
+            "speed": np.asarray(v),
+            "duty": np.asarray(p.duty),
+            "spine": np.asarray(self.spine_smooth),
+            "heading_rate": np.asarray(self.yaw_rate),
+        }
+
+    def pose(self, plans: dict[str, np.ndarray]):
+        """Local rotations (T, J, 3, 3), root positions (T, 3) and IK errors (T, 4)."""
+        return self.poser.pose(plans)
+
+
+_ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
+               "toe", "tail", "look", "contacts", "phase", "speed", "duty", "spine",
+               "heading_rate")
+
+
+def stack_plans(plans: list[dict]) -> dict[str, np.ndarray]:
+    """Stack per-frame plans into arrays with a leading frame axis."""
+    out = {k: np.stack([np.asarray(pl[k]) for pl in plans]) for k in _ARRAY_KEYS}
+    out["gait"] = np.array([pl["gait"] for pl in plans], dtype=object)
+    return out
+
+
+def simulate(character: Character, script: Script | Command, duration: float, fps: float,
+             *, seed: int = 0, settings: ControllerSettings | None = None) -> Motion:
+    """Run a scripted sequence of commands and return the motion.
+
+    Parameters
+    ----------
+    character : Character
+    script : Script or Command
+        The commands over time (a single command is held throughout).
+    duration : float
+        Seconds to simulate (> 0).
+    fps : float
+        Frames per second; the controller steps once per frame.
+    seed : int
+
+    Returns
+    -------
+    Motion
+        ``int(round(duration * fps))`` frames, frame ``k`` at ``t = k / fps``
+        (the state after ``k + 1`` steps), with planned contacts, gait labels
+        and, in ``extras``, the CPG stride fractions ``phase`` (T, 4), the
+        spine angle ``spine`` (T,), the duty factor ``duty`` (T,), the speed
+        ``speed`` (T,) and the IK error ``ik_error`` (T, 4).
+    """
+    if isinstance(script, Command):
+        script = Script.constant(script)
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    n = int(round(duration * fps))
+    dt = 1.0 / fps
+    first = script.commands[0]
+    ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
+    plans = [ctl.step(script.command_at(k * dt), dt) for k in range(n)]
+    plan = stack_plans(plans)
+    local, root, err = ctl.pose(plan)
+    return Motion(
+        character.skeleton, fps, root, quaternions_from_matrices(local),
+        contacts=plan["contacts"], gaits=plan["gait"], foot_joints=character.foot_joints,
+        extras={"phase": plan["phase"], "spine": plan["spine"], "duty": plan["duty"],
+                "speed": plan["speed"], "ik_error": err, "heading": plan["heading"]},
+    )
+
+
+def wrap(a):  # re-exported helper for callers that steer by heading
+    return wrap_angle(a)
+
+
+__all__ = ["ControllerSettings", "ProceduralController", "QuadsimClampWarning", "simulate",
+           "stack_plans", "GRAVITY"]

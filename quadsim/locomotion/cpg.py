@@ -1,0 +1,135 @@
+"""Central pattern generator: coupled Hopf oscillators in polar form.
+
+One oscillator per leg (at the shoulder or hip) and one at mid-spine. Each
+has an amplitude ``r`` that converges to ``sqrt(mu)`` and a phase ``theta``
+advanced by a shared clock ``omega`` plus diffusive coupling towards the
+gait's phase offsets (DESIGN.md, "polar form with a uniform clock"):
+
+``dr_i/dt = a (mu - r_i^2) r_i``
+
+``dtheta_i/dt = omega + w sum_j r_j sin(theta_j - theta_i - phi_ij)``,
+``phi_ij = 2 pi (psi_i - psi_j)``
+
+where ``psi`` are the footfall table's touchdown phases. At the locked state
+``theta_i = theta_LH - 2 pi psi_i``: a leg touches down when its phase
+crosses a multiple of ``2 pi`` and is in stance while the stride fraction
+``u_i = frac(theta_i / 2 pi)`` is below the duty factor. The spine
+oscillator is driven one way by the two left legs, so it follows the legs
+and never perturbs them.
+
+The state arrays may carry any leading batch shape (many characters).
+Integration is fixed-step RK4 with sub-steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+#: legs driving the spine oscillator (LF and LH), see module docstring
+_SPINE_DRIVERS = np.array([0, 2])
+
+
+@dataclass(frozen=True)
+class CPGParams:
+    """Constants of the oscillator network.
+
+    Attributes
+    ----------
+    mu : float
+        Squared limit-cycle amplitude.
+    gain : float
+        Amplitude convergence rate ``a`` (1/s).
+    coupling : float
+        Leg-to-leg phase coupling ``w`` (rad/s).
+    spine_coupling : float
+        Leg-to-spine coupling (rad/s), one way.
+    substeps : int
+        RK4 sub-steps per call of :func:`cpg_step`.
+    """
+
+    mu: float = 1.0
+    gain: float = 8.0
+    coupling: float = 4.0
+    spine_coupling: float = 6.0
+    substeps: int = 2
+
+
+def _derivatives(theta, r, theta_s, r_s, omega, psi, p: CPGParams):
+    # theta (..., 4), r (..., 4), theta_s (...), omega (...), psi (..., 4)
+    phi = TWO_PI * (psi[..., :, None] - psi[..., None, :])  # phi_ij
+    diff = theta[..., None, :] - theta[..., :, None] - phi  # theta_j - theta_i - phi_ij
+    dtheta = omega[..., None] + p.coupling * np.sum(r[..., None, :] * np.sin(diff), axis=-1)
+    dr = p.gain * (p.mu - r * r) * r
+    # spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (i.e. theta_LH)
+    drv = theta[..., _SPINE_DRIVERS] + TWO_PI * psi[..., _SPINE_DRIVERS]
+    dtheta_s = omega + p.spine_coupling * np.sum(
+        r[..., _SPINE_DRIVERS] * np.sin(drv - theta_s[..., None]), axis=-1)
+    dr_s = p.gain * (p.mu - r_s * r_s) * r_s
+    return dtheta, dr, dtheta_s, dr_s
+
+
+def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGParams()):
+    """Advance the network by ``dt`` seconds.
+
+    Parameters
+    ----------
+    theta : ndarray, shape (..., 4)
+        Unwrapped leg phases (rad), leg order LF, RF, LH, RH.
+    r : ndarray, shape (..., 4)
+        Leg oscillator amplitudes.
+    theta_s, r_s : ndarray, shape (...)
+        Spine oscillator phase (rad) and amplitude.
+    omega : ndarray, shape (...)
+        Stride angular frequency ``2 pi f`` (rad/s).
+    psi : ndarray, shape (..., 4)
+        Target touchdown phases (fractions of a stride after LH's).
+    dt : float
+        Step (s).
+
+    Returns
+    -------
+    theta, r, theta_s, r_s : ndarrays
+        The advanced state (new arrays).
+    """
+    omega = np.asarray(omega, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    h = dt / params.substeps
+    for _ in range(params.substeps):
+        k1 = _derivatives(theta, r, theta_s, r_s, omega, psi, params)
+        s2 = [x + 0.5 * h * k for x, k in zip((theta, r, theta_s, r_s), k1)]
+        k2 = _derivatives(*s2, omega, psi, params)
+        s3 = [x + 0.5 * h * k for x, k in zip((theta, r, theta_s, r_s), k2)]
+        k3 = _derivatives(*s3, omega, psi, params)
+        s4 = [x + h * k for x, k in zip((theta, r, theta_s, r_s), k3)]
+        k4 = _derivatives(*s4, omega, psi, params)
+        theta, r, theta_s, r_s = (
+            x + (h / 6.0) * (a + 2 * b + 2 * c + d)
+            for x, a, b, c, d in zip((theta, r, theta_s, r_s), k1, k2, k3, k4))
+    return theta, r, theta_s, r_s
+
+
+def stride_fraction(theta):
+    """``u = frac(theta / 2 pi)`` in [0, 1): 0 at touchdown."""
+    return np.mod(np.asarray(theta) / TWO_PI, 1.0)
+
+
+def locked_phases(theta):
+    """Phase of each leg relative to LH's as a touchdown fraction in [0, 1).
+
+    At the locked state this equals the gait's ``psi``.
+    """
+    theta = np.asarray(theta)
+    return np.mod((theta[..., 2:3] - theta) / TWO_PI, 1.0)
+
+
+def oscillator_outputs(theta, r):
+    """The seed's ``(x, z) = r (sin theta, cos theta)`` per oscillator.
+
+    ``z >= 0`` is the seed's stance half-cycle for a duty factor of 0.5.
+    """
+    theta = np.asarray(theta)
+    r = np.asarray(r)
+    return r * np.sin(theta), r * np.cos(theta)

@@ -1,0 +1,83 @@
+"""Swing-foot paths: Catmull-Rom splines from lift-off to touchdown."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from quadsim.frames import UP
+
+
+def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Uniform Catmull-Rom spline through ``points[1:-1]``.
+
+    Parameters
+    ----------
+    points : array-like, shape (..., K, 3)
+        Control points; the curve passes through ``points[1]`` ...
+        ``points[K-2]`` (``K >= 4``), the end points only shape the tangents.
+    s : array-like, shape (...)
+        Curve parameter in [0, 1] over the whole curve (each of the
+        ``K - 3`` segments takes an equal share).
+
+    Returns
+    -------
+    p : ndarray, shape (..., 3)
+    """
+    P = np.asarray(points, dtype=float)
+    K = P.shape[-2]
+    if K < 4:
+        raise ValueError(f"`points` needs at least 4 control points, got {K}")
+    nseg = K - 3
+    s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+    x = s * nseg
+    i = np.minimum(np.floor(x).astype(int), nseg - 1)
+    t = (x - i)[..., None]
+    idx = i[..., None, None] + np.arange(4)[:, None]  # (..., 4, 1)
+    idx = np.broadcast_to(idx, s.shape + (4, 3))
+    Pb = np.broadcast_to(P, s.shape + P.shape[-2:])
+    p0, p1, p2, p3 = np.moveaxis(np.take_along_axis(Pb, idx, axis=-2), -2, 0)
+    t2, t3 = t * t, t * t * t
+    return 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
+                  + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
+
+
+#: Knots of the swing path: fraction of the step covered and fraction of the
+#: clearance, first and last only shaping the end tangents.
+SWING_KNOTS = np.array([
+    [-0.30, -0.75],
+    [0.00, 0.00],
+    [0.30, 0.75],
+    [0.62, 1.00],
+    [0.88, 0.70],
+    [1.00, 0.00],
+    [1.00, -0.50],
+])
+
+
+def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
+                         height: np.ndarray) -> np.ndarray:
+    """Control points of a swing path, shape (..., 7, 3).
+
+    The foot leaves the ground steeply and quickly -- faster than the body
+    moves, whatever the duty factor, so the leg stays within reach -- swings
+    through the clearance ``height`` past the middle of the step, and comes
+    down steeply with its forward speed easing to nothing at touchdown (a
+    paw that lands without skidding). Each of the four segments between the
+    knots :data:`SWING_KNOTS` takes a quarter of the swing.
+
+    Parameters
+    ----------
+    liftoff, touchdown : array-like, shape (..., 3)
+    height : array-like, shape (...)
+        Clearance at mid-swing above the straight line between the two (m).
+    """
+    a = np.asarray(liftoff, dtype=float)
+    b = np.asarray(touchdown, dtype=float)
+    h = np.asarray(height, dtype=float)[..., None, None] * UP
+    d = (b - a)[..., None, :]
+    return a[..., None, :] + SWING_KNOTS[:, :1] * d + SWING_KNOTS[:, 1:] * h
+
+
+def swing_position(liftoff, touchdown, height, s) -> np.ndarray:
+    """Foot position along its swing path at progress ``s`` in [0, 1], shape (..., 3)."""
+    return catmull_rom(swing_control_points(liftoff, touchdown, height), s)
