@@ -37,19 +37,20 @@ from quadsim.skeleton import Motion, Skeleton
 
 #: Hip/shoulder offsets from the root (m): fore feet 0.5 m ahead, hind 0.5 m behind.
 HIPS = np.array([[0.15, 0.0, 0.5], [-0.15, 0.0, 0.5], [0.15, 0.0, -0.5], [-0.15, 0.0, -0.5]])
-WALK = dict(duty=0.6, phase=(0.25, 0.75, 0.0, 0.5))
+WALK = {"duty": 0.6, "phase": (0.25, 0.75, 0.0, 0.5)}
 
 
 def synth_gait(duty, phase, *, period=1.0, fps=60.0, seconds=10.0, speed=1.5,
-               swing_height=0.08, t0=0.1, root_height=0.8):
+               swing_height=0.08, t0=0.1, root_height=0.8, eased=True):
     """Feet planted during stance, lifted on a sine arc in swing, root at constant speed.
 
     Foot i touches down at ``t0 + (n + phase[i]) * period`` and stays down for
-    ``duty * period``; in swing it moves forward by one stride length with an
-    eased (zero end velocity) profile. Returns times (T,), feet (T, 4, 3),
+    ``duty * period``; in swing it moves forward by one stride length, eased
+    (zero horizontal velocity at lift-off and touchdown) or at constant speed
+    (``eased=False``). Returns times (T,), feet (T, 4, 3),
     root (T, 3) and the true contacts (T, 4).
     """
-    t = np.arange(int(round(seconds * fps))) / fps
+    t = np.arange(round(seconds * fps)) / fps
     stride = speed * period
     phase = np.asarray(phase, dtype=float)
     cyc = (t[:, None] - t0) / period - phase
@@ -61,7 +62,8 @@ def synth_gait(duty, phase, *, period=1.0, fps=60.0, seconds=10.0, speed=1.5,
     feet = np.empty(t.shape + (4, 3))
     feet[..., 0] = HIPS[:, 0]
     feet[..., 1] = np.where(swing, swing_height * np.sin(np.pi * s), 0.0)
-    feet[..., 2] = plant0 + n * stride + np.where(swing, stride * (1 - np.cos(np.pi * s)) / 2, 0)
+    progress = (1 - np.cos(np.pi * s)) / 2 if eased else s
+    feet[..., 2] = plant0 + n * stride + np.where(swing, stride * progress, 0.0)
     root = np.stack([np.zeros_like(t), np.full_like(t, root_height), speed * t], axis=-1)
     return t, feet, root, ~swing
 
@@ -82,13 +84,17 @@ def test_walk_duty_factor_phases_and_stride_are_measured():
 
 
 @pytest.mark.parametrize("case", [
-    dict(duty=0.4, phase=(0.5, 0.0, 0.0, 0.5), period=0.93, fps=50.0, t0=0.0537,
-         speed=2.5),                                                   # trot, off-grid
-    dict(duty=0.5, phase=(0.05, 0.55, 0.0, 0.5), period=0.8, fps=30.0, t0=0.21),  # pace
-    dict(duty=0.25, phase=(0.55, 0.35, 0.0, 0.12), period=0.4, fps=120.0, t0=0.013,
-         speed=6.0, swing_height=0.15),                                # rotary gallop
-    dict(duty=0.7, phase=(0.2, 0.7, 0.0, 0.5), period=1.37, fps=24.0, t0=0.3,
-         speed=0.8),                                                   # slow walk, low fps
+    # trot between frames
+    {"duty": 0.4, "phase": (0.5, 0.0, 0.0, 0.5), "period": 0.93, "fps": 50.0,
+     "t0": 0.0537, "speed": 2.5},
+    # pace
+    {"duty": 0.5, "phase": (0.05, 0.55, 0.0, 0.5), "period": 0.8, "fps": 30.0, "t0": 0.21},
+    # rotary gallop
+    {"duty": 0.25, "phase": (0.55, 0.35, 0.0, 0.12), "period": 0.4, "fps": 120.0,
+     "t0": 0.013, "speed": 6.0, "swing_height": 0.15},
+    # slow walk at a low frame rate
+    {"duty": 0.7, "phase": (0.2, 0.7, 0.0, 0.5), "period": 1.37, "fps": 24.0,
+     "t0": 0.3, "speed": 0.8},
 ])
 def test_duty_and_phase_hold_for_other_gaits_and_frame_rates(case):
     _, feet, _, _ = synth_gait(**case)
@@ -123,8 +129,29 @@ def test_contacts_agree_with_the_true_stance():
     assert not np.any(c[feet[..., 1] > 0.03])   # a lifted foot is never in contact
 
 
+def test_a_foot_landing_at_speed_is_in_contact_only_once_planted():
+    # constant-speed swing: the last airborne frame can be a millimetre above
+    # the ground and slow into the touchdown, yet it is not part of the stance
+    for fps in (30.0, 60.0, 120.0):
+        _, feet, _, truth = synth_gait(**WALK, fps=fps, period=0.93, t0=0.051, eased=False)
+        c = foot_contacts(feet, fps)
+        np.testing.assert_array_equal(c, truth)
+        assert foot_slide(feet, c)[1] < 1e-9
+        np.testing.assert_allclose(duty_factors(c, fps, feet), 0.6, atol=0.005)
+
+
+def test_jittery_feet_still_give_the_footfall_pattern():
+    rng = np.random.default_rng(3)
+    _, feet, _, truth = synth_gait(**WALK, period=0.9, t0=0.05)
+    feet = feet + rng.normal(scale=0.0003, size=feet.shape)      # 0.3 mm noise
+    c = foot_contacts(feet, 60.0)
+    assert np.mean(c == truth) > 0.99
+    np.testing.assert_allclose(duty_factors(c, 60.0, feet), 0.6, atol=0.01)
+    assert np.all(circular_diff(phases(c, 60.0, feet), WALK["phase"]) < 0.01)
+
+
 def test_contacts_from_flags_alone_give_frame_precision():
-    _, feet, _, truth = synth_gait(**WALK)
+    truth = synth_gait(**WALK)[3]
     duty = duty_factors(truth, 60.0)
     np.testing.assert_allclose(duty, 0.6, atol=1.5 / 60)
     assert np.all(circular_diff(phases(truth, 60.0), WALK["phase"]) < 0.02)
@@ -220,6 +247,7 @@ def test_slide_is_the_largest_distance_from_the_touchdown_point():
     feet[:, 0, 2] = wiggle
     slides, top = foot_slide(feet, np.ones((20, 4), dtype=bool))
     assert slides[0][0] == pytest.approx(np.abs(wiggle).max())
+    assert top == slides[0][0]
     assert [len(x) for x in slides] == [1, 1, 1, 1]
 
 
@@ -275,6 +303,19 @@ def test_a_reversing_joint_shows_an_acceleration_spike():
     a = angular_acceleration(q, fps)[:, 0]
     assert a.max() == pytest.approx(4.0 * fps)              # ...the velocity vector flips
     assert np.argmax(a) == 59 and np.sum(a > 1e-6) == 1
+
+
+def test_angular_velocity_matches_scipy_for_random_rotations():
+    from scipy.spatial.transform import Rotation
+
+    rng = np.random.default_rng(11)
+    q = rng.normal(size=(50, 3, 4))
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    r = Rotation.from_quat(q.reshape(-1, 4)[:, [1, 2, 3, 0]]).as_rotvec().reshape(50, 3, 3)
+    rel = (Rotation.from_rotvec(r[1:].reshape(-1, 3))
+           * Rotation.from_rotvec(r[:-1].reshape(-1, 3)).inv())
+    expected = rel.magnitude().reshape(49, 3) * 24.0
+    np.testing.assert_allclose(angular_velocity(q, 24.0), expected, atol=1e-9)
 
 
 def test_angular_velocity_of_a_motion_matches_its_arrays():

@@ -126,11 +126,12 @@ def default_contact_thresholds(feet) -> tuple[float, float]:
     """The contact thresholds :func:`foot_contacts` uses when none are given.
 
     With ``s`` the :func:`body_span`: height ``0.02 s`` bounded to
-    [5 mm, 30 mm] (1.4 cm for a leopard, 2.6 cm for a horse, the 5 mm floor for
-    a cub), well under any swing clearance (about a tenth of the hip height);
-    speed ``0.25 sqrt(g max(s, 0.1 m))`` (about 0.65 m/s for a leopard, 0.9 m/s for a horse):
-    Froude-scaled like the gaits, far above a planted foot's speed (~0) and
-    below a swinging foot's (its mean is the body speed / (1 - duty)).
+    [5 mm, 30 mm] (12 mm for the leopard, whose feet are 0.63 m apart; about
+    25 mm for a horse; the 5 mm floor for a cub), well under any swing
+    clearance (about a tenth of the hip height); speed
+    ``0.25 sqrt(g max(s, 0.1 m))`` (0.62 m/s for the leopard, about 0.9 m/s for
+    a horse): Froude-scaled like the gaits, far above a planted foot's speed
+    (~0) and below a swinging foot's (its mean is the body speed / (1 - duty)).
 
     Returns
     -------
@@ -549,7 +550,7 @@ def foot_slide(feet, contacts) -> tuple[list[np.ndarray], float]:
     T = len(f)
     slides = []
     for i in range(4):
-        s, e = _runs(c[:, i])
+        s, _ = _runs(c[:, i])
         if len(s) == 0:
             slides.append(np.zeros(0))
             continue
@@ -639,18 +640,19 @@ def angular_velocity_vectors(motion, fps: float | None = None) -> np.ndarray:
         rad/s.
     """
     q, fps = _quaternions_fps(motion, fps)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    a, b = q[:-1], q[1:]
-    # dq = b * conj(a)
-    w = np.sum(a * b, axis=-1)
-    v = (a[..., :1] * b[..., 1:] - b[..., :1] * a[..., 1:]
-         - np.cross(b[..., 1:], a[..., 1:]))
-    sign = np.where(w < 0, -1.0, 1.0)[..., None]
-    w, v = np.abs(w), v * sign
-    n = np.linalg.norm(v, axis=-1)
-    angle = 2.0 * np.arctan2(n, w)
+    q = q / np.sqrt(np.einsum("...i,...i->...", q, q))[..., None]
+    aw, ax, ay, az = np.moveaxis(q[:-1], -1, 0)
+    bw, bx, by, bz = np.moveaxis(q[1:], -1, 0)
+    # dq = b * conj(a) = (w, v)
+    w = aw * bw + ax * bx + ay * by + az * bz
+    v = np.stack([aw * bx - bw * ax - (by * az - bz * ay),
+                  aw * by - bw * ay - (bz * ax - bx * az),
+                  aw * bz - bw * az - (bx * ay - by * ax)], axis=-1)
+    n = np.sqrt(np.einsum("...i,...i->...", v, v))
+    angle = 2.0 * np.arctan2(n, np.abs(w))           # the shorter way round
     scale = np.divide(angle, n, out=np.full_like(n, 2.0), where=n > 1e-12)
-    return v * scale[..., None] * fps
+    scale *= np.where(w < 0, -fps, fps)
+    return v * scale[..., None]
 
 
 def angular_velocity(motion, fps: float | None = None) -> np.ndarray:
@@ -729,7 +731,7 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
                              f"expected ({len(f)}, J, 4)")
     if not (math.isfinite(start) and start >= 0):
         raise ValueError(f"`start` must be a non-negative number of seconds, got {start!r}")
-    i0 = int(math.ceil(start * fps - 1e-9))
+    i0 = math.ceil(start * fps - 1e-9)
     if len(f) - i0 < 3:
         raise ValueError(f"need at least 3 frames after `start` = {start} s; "
                          f"the motion has {len(f)} frames at {fps:g} fps")
@@ -832,8 +834,8 @@ def format_report(report: dict) -> str:
     def fmt(x, spec):
         return "-" if x is None else format(x, spec)
 
-    lines = [f"{report['frames']} frames at {report['fps']:g} fps "
-             f"({report['duration']:.2f} s from {report['start']:.2f} s)", ""]
+    lines = [(f"{report['frames']} frames at {report['fps']:g} fps "
+              f"({report['duration']:.2f} s from {report['start']:.2f} s)"), ""]
     head = (f"{'leg':<4}{'duty':>7}{'phase':>7}{'strides':>9}{'contact s':>11}"
             f"{'slide max mm':>14}{'slide mean mm':>15}{'below ground mm':>17}")
     lines += [head, "-" * len(head)]
@@ -859,7 +861,7 @@ def format_report(report: dict) -> str:
         + joint("max_angular_velocity"),
         f"max angular acceleration  {fmt(report['max_angular_acceleration'], '.1f')} rad/s^2"
         + joint("max_angular_acceleration"),
-        f"contact thresholds        {report['contact_height'] * 1e3:.1f} mm, "
-        f"{report['contact_speed']:.2f} m/s",
+        (f"contact thresholds        {report['contact_height'] * 1e3:.1f} mm, "
+         f"{report['contact_speed']:.2f} m/s"),
     ]
     return "\n".join(lines)

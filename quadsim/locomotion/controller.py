@@ -207,6 +207,10 @@ class ProceduralController:
                     0.0 if len(bad) else xs[-1])
         return out
 
+    def gait_speed_cap(self, gait: str) -> float:
+        """Fastest speed (m/s) a requested gait is held at: 15 % above its range."""
+        return 1.15 * self.gaits[gait].speed_range[1]
+
     def stride_limit(self, duty: float, drop: float) -> float:
         """Longest stride (m) whose stance sweep every leg reaches at this duty and drop."""
         half = min(float(np.interp(drop, self.drops, self.half_sweep[:, i])) for i in range(4))
@@ -224,6 +228,13 @@ class ProceduralController:
         s = self.settings
         # 1. speed and turning -------------------------------------------
         v_cmd = float(command.speed)
+        if command.gait:
+            cap = self.gait_speed_cap(resolve_gait_name(command.gait, self.character))
+            if v_cmd > cap:
+                self._warn("gait_speed", f"speed {v_cmd:.2f} m/s is above what the "
+                           f"{command.gait} of {self.character.id} reaches ({cap:.2f} m/s); "
+                           f"clamped to {cap:.2f} m/s")
+                v_cmd = cap
         if v_cmd > self.max_speed:
             self._warn("speed", f"speed {v_cmd:.2f} m/s is above {self.character.id}'s fastest "
                        f"gait ({self.max_speed:.2f} m/s); clamped to {self.max_speed:.2f} m/s")
@@ -245,6 +256,10 @@ class ProceduralController:
         # 2. gait -----------------------------------------------------------
         if command.gait:
             wanted = resolve_gait_name(command.gait, self.character)
+            # a slow gait cannot carry a fast body: slow down in the automatic
+            # gaits first, then change (a fast gait may start at any speed)
+            if v > self.gait_speed_cap(wanted):
+                wanted = self.scheduler.auto_choice(v)
         else:
             wanted = self.scheduler.auto_choice(v)
         p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3))
@@ -280,7 +295,10 @@ class ProceduralController:
                 if u[i] >= p.duty and u[i] < 1.0 and self.theta[i] - self.theta_td[i] > 1e-9:
                     self.stance[i] = False
                     self.liftoff[i] = self.planted[i]
-                    self.theta_lo[i] = self.theta[i]
+                    # lift-off at the moment the stride fraction crossed the duty
+                    # factor during this step (or now, if the duty factor fell)
+                    cross = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + p.duty)
+                    self.theta_lo[i] = cross if cross > theta_prev[i] else self.theta[i]
                     self.theta_td[i] = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + 1.0)
                     self.swing_s[i] = 0.0
             if not self.stance[i]:
