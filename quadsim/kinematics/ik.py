@@ -89,8 +89,8 @@ class LegGeometry:
         return len(self.lengths)
 
 
-def leg_geometry(character: Character, leg: LegSpec, *, pre_gain: float = 0.6,
-                 post_gain: float = 0.5, fold_fraction: float = 0.55) -> LegGeometry:
+def leg_geometry(character: Character, leg: LegSpec, *,
+                 fold_fraction: float = 0.55) -> LegGeometry:
     """Build a leg's :class:`LegGeometry` from the character description.
 
     The fold direction of each post bone comes from the character's joint
@@ -125,7 +125,7 @@ def leg_geometry(character: Character, leg: LegSpec, *, pre_gain: float = 0.6,
     return LegGeometry(
         chain=chain, parent=int(sk.parents[chain[0]]), top_offset=sk.offsets[chain[0]].copy(),
         lengths=lengths, rest_angles=rest, pair=leg.ik_start, bend=leg.bend, fold=fold,
-        pre_gain=pre_gain, post_gain=post_gain, toe_angle=toe, rest_leg_angle=float(np.arctan2(rel[2], -rel[1])),
+        pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe, rest_leg_angle=float(np.arctan2(rel[2], -rel[1])),
     )
 
 
@@ -166,7 +166,9 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     d = np.einsum("...ij,...j->...i", RpT, tgt - top)
     d = np.broadcast_to(d, batch + (3,))
     # abduction about the parent's forward axis brings the target into the plane
-    a = np.arctan2(d[..., 0], np.maximum(-d[..., 1], _EPS))
+    # (a target above the top joint swings the plane past horizontal: the
+    # leg then points at it, and `reached` reports the true miss)
+    a = np.arctan2(d[..., 0], -d[..., 1])
     ca, sa = np.cos(a), np.sin(a)
     down_t = -(d[..., 1] * ca - d[..., 0] * sa)  # -(y') with y' = -x sin a + y cos a
     fwd_t = d[..., 2]

@@ -65,8 +65,13 @@ class ControllerSettings:
     reach_margin : float
         Fraction of a leg's measured stance sweep a stride may use (room for
         the body's bob, sway and flexion).
+    vault : float
+        Extra drop of a girdle (fraction of the pelvis height) a stride may
+        use at the ends of stance: the body vaults over its planted legs.
     max_bend : float
         Largest spine yaw bend (rad).
+    max_sway : float
+        Largest yaw of a girdle following its feet (rad).
     tail_lag : float
         Time constant of each tail joint following the one before (s).
     cpg : CPGParams
@@ -75,7 +80,9 @@ class ControllerSettings:
     acceleration: float = 3.0
     turn_response: float = 0.25
     reach_margin: float = 0.85
+    vault: float = 0.04
     max_bend: float = math.radians(35.0)
+    max_sway: float = math.radians(6.0)
     tail_lag: float = 0.08
     cpg: CPGParams = CPGParams()
 
@@ -112,6 +119,9 @@ class ProceduralController:
             character.locomotion.get("max_turn_rate_deg_s", 90.0)))
         self.flexed = math.radians(float(character.locomotion.get("spine_flex_deg", 15.0)))
         self.extended = math.radians(float(character.locomotion.get("spine_extend_deg", -10.0)))
+        self.min_turn_radius = float(character.locomotion.get(
+            "min_turn_radius_body_lengths", 1.0))
+        self.slow_scale = float(character.locomotion.get("spine_slow_scale", 1.0))
         self._warned: set[str] = set()
         self._geometry()
         self._init_state(seed)
@@ -125,7 +135,7 @@ class ProceduralController:
         pair_top = np.array([leg.chain[leg.ik_start] for leg in ch.legs])
         self.pair_height = P[pair_top, Y]
         self.drops = np.linspace(0.0, 0.3, 13)
-        self.half_sweep = self._measure_sweeps(self.drops)
+        self.half_sweep = np.maximum.accumulate(self._measure_sweeps(self.drops), axis=0)
         # key points: girdle centres on the ground, relative to the pelvis
         self.hind_z = float(np.mean(P[pair_top[2:], 2]) - P[0, 2])
         self.body_length = float(np.mean(P[pair_top[:2], 2]) - np.mean(P[pair_top[2:], 2]))
@@ -153,6 +163,7 @@ class ProceduralController:
         self.spine_angle = 0.0
         self.spine_smooth = 0.0
         self.height = self.pelvis_height
+        self.drops_now = np.zeros(2)
         self.tail = self.tail_rest.copy()
         self.stance = np.ones(4, dtype=bool)
         feet = self.character.rest_foot_positions().copy()
@@ -207,14 +218,32 @@ class ProceduralController:
                     0.0 if len(bad) else xs[-1])
         return out
 
+    def max_turn_rate_at(self, speed: float) -> float:
+        """Largest turn rate (rad/s) at ``speed``: the character's maximum, and no
+        tighter than its minimum turn radius (``min_turn_radius_body_lengths``
+        body lengths, default 1) -- the key points must fit on the arc."""
+        r_min = self.min_turn_radius * self.body_length
+        return min(self.max_turn_rate, max(speed, 0.1 * self.h) / r_min)
+
     def gait_speed_cap(self, gait: str) -> float:
         """Fastest speed (m/s) a requested gait is held at: 15 % above its range."""
         return 1.15 * self.gaits[gait].speed_range[1]
 
-    def stride_limit(self, duty: float, drop: float) -> float:
-        """Longest stride (m) whose stance sweep every leg reaches at this duty and drop."""
+    def stride_limit(self, duty: float, drop: float, bound: float = 0.0) -> float:
+        """Longest stride (m) whose stance sweep every leg reaches at this duty and drop.
+
+        The bounding gaits keep a further 5 % in hand for the spine's flexion,
+        which moves the girdles against the feet.
+        """
         half = min(float(np.interp(drop, self.drops, self.half_sweep[:, i])) for i in range(4))
-        return 2.0 * self.settings.reach_margin * half / max(duty, 1e-3)
+        margin = self.settings.reach_margin - 0.05 * bound
+        return 2.0 * margin * half / max(duty, 1e-3)
+
+    def needed_drop(self, leg: int, offset: float) -> float:
+        """Body drop (fraction of pelvis height) at which a planted foot ``offset``
+        metres fore or aft of its mid-stance point is within the leg's reach margin."""
+        x = abs(offset) / self.settings.reach_margin
+        return float(np.interp(x, self.half_sweep[:, leg], self.drops))
 
     # ------------------------------------------------------------ stepping
     def step(self, command: Command, dt: float | None = None) -> dict:
@@ -240,17 +269,19 @@ class ProceduralController:
                        f"gait ({self.max_speed:.2f} m/s); clamped to {self.max_speed:.2f} m/s")
             v_cmd = self.max_speed
         dv = np.clip(v_cmd - self.speed, -s.acceleration * dt, s.acceleration * dt)
+        v_before = self.speed
         self.speed = max(self.speed + float(dv), 0.0)
         v = self.speed
+        max_rate = self.max_turn_rate_at(max(v, v_cmd))
         if command.heading is not None:
-            rate = float(turn_rate_towards(self.heading, command.heading, self.max_turn_rate))
+            rate = float(turn_rate_towards(self.heading, command.heading, max_rate))
         else:
             rate = float(command.turn_rate or 0.0)
-            if abs(rate) > self.max_turn_rate:
+            if abs(rate) > max_rate:
                 self._warn("turn", f"turn rate {math.degrees(rate):.1f} deg/s is beyond "
-                           f"{self.character.id}'s maximum "
-                           f"{math.degrees(self.max_turn_rate):.1f} deg/s; clamped")
-                rate = math.copysign(self.max_turn_rate, rate)
+                           f"{self.character.id}'s maximum at {max(v, v_cmd):.2f} m/s "
+                           f"({math.degrees(max_rate):.1f} deg/s); clamped")
+                rate = math.copysign(max_rate, rate)
         self.yaw_rate += (rate - self.yaw_rate) * (1.0 - math.exp(-dt / s.turn_response))
 
         # 2. gait -----------------------------------------------------------
@@ -264,9 +295,10 @@ class ProceduralController:
             wanted = self.scheduler.auto_choice(v)
         p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3))
         self.params = p
-        lam = min(p.stride_length(v, self.h), self.stride_limit(p.duty, p.drop))
+        lam = min(p.stride_length(v, self.h),
+                  self.stride_limit(p.duty, p.drop + s.vault, p.bound))
         lam_min_speed = min(p.stride_length(p.min_speed, self.h),
-                            self.stride_limit(p.duty, p.drop))
+                            self.stride_limit(p.duty, p.drop + s.vault, p.bound))
         self.freq = max(v / lam, p.min_speed / lam_min_speed) if v > 1e-6 else \
             p.min_speed / lam_min_speed
         omega = TWO_PI * self.freq
@@ -279,9 +311,10 @@ class ProceduralController:
         self.theta = np.maximum(self.theta, theta_prev)
 
         # 4. body on its path -------------------------------------------------
+        # trapezoidal in speed and heading: exact for constant acceleration
         self.heading = self.heading + self.yaw_rate * dt
-        self.root_xz = self.root_xz + v * dt * heading_vector(self.heading - 0.5 *
-                                                               self.yaw_rate * dt)
+        self.root_xz = self.root_xz + 0.5 * (v_before + v) * dt * heading_vector(
+            self.heading - 0.5 * self.yaw_rate * dt)
         bend_target = np.clip(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
                               -s.max_bend, s.max_bend)
         self.bend += (bend_target - self.bend) * (1.0 - math.exp(-dt / 0.2))
@@ -329,20 +362,30 @@ class ProceduralController:
         hind_down = bool(self.stance[2] or self.stance[3])
         state = spine_state(fore_down, hind_down)
         tgt = float(spine_target(state, self.flexed, self.extended))
-        rate = 3.0 * abs(self.flexed - self.extended) * self.freq
+        rate = 5.0 * abs(self.flexed - self.extended) * self.freq
         self.spine_angle = float(rate_limited(self.spine_angle, tgt, rate, dt))
         bound_angle = self.spine_angle
-        slow_angle = float(flex_angle(self.theta_s, p.spine_amplitude))
+        slow_angle = float(flex_angle(self.theta_s, self.slow_scale * p.spine_amplitude))
         raw = p.bound * bound_angle + (1.0 - p.bound) * slow_angle
-        self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.04))
+        self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.03))
         support = np.where(self.stance, np.sin(np.pi * np.clip(u / max(p.duty, 1e-3), 0, 1)), 0)
         bob = 0.6 * p.drop * self.h * (0.5 - float(np.mean(support)))
-        target_h = self.pelvis_height * (1.0 - p.drop) + bob
-        self.height += (target_h - self.height) * (1.0 - math.exp(-dt / 0.05))
+        # vaulting: each girdle drops as far as its planted feet need
+        mid = keys[g] + rotate_y(self.foot_offset, key_heading[g])
+        along = np.einsum("ij,ij->i", self.feet - mid, heading_vector(key_heading[g]))
+        need = np.array([self.needed_drop(i, along[i]) if self.stance[i] else 0.0
+                         for i in range(4)])
+        drop_g = np.maximum(p.drop, [need[2:].max(), need[:2].max()])  # hind, fore
+        self.drops_now += (drop_g - self.drops_now) * (1.0 - math.exp(-dt / 0.04))
+        target_h = self.pelvis_height * (1.0 - self.drops_now[0]) + bob
+        self.height += (target_h - self.height) * (1.0 - math.exp(-dt / 0.04))
+        pitch = math.atan2((self.drops_now[1] - self.drops_now[0]) * self.pelvis_height,
+                           self.body_length)
         # girdle sway from where the left and right feet are (seed figure 5)
         local = rotate_y(self.feet - keys[g], -key_heading[g])
         width = np.maximum(np.abs(local[[0, 2], 0] - local[[1, 3], 0]), 1e-3)
-        sway = 0.25 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2], width)[::-1]
+        sway = np.clip(0.1 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2], width),
+                       -s.max_sway, s.max_sway)[::-1]
         # tail: each joint follows the one before with a lag
         n_tail = len(self.tail)
         if n_tail:
@@ -358,7 +401,7 @@ class ProceduralController:
         return {
             "root": root,
             "heading": np.asarray(self.heading),
-            "pitch": np.asarray(0.0),
+            "pitch": np.asarray(pitch),
             "sway": sway,
             "bend_yaw": np.asarray(self.bend),
             "bend_pitch": np.asarray(self.spine_smooth),
@@ -412,7 +455,7 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     -------
     Motion
         ``int(round(duration * fps))`` frames, frame ``k`` at ``t = k / fps``
-        (the state after ``k + 1`` steps), with planned contacts, gait labels
+        (the state after ``k`` steps), with planned contacts, gait labels
         and, in ``extras``, the CPG stride fractions ``phase`` (T, 4), the
         spine angle ``spine`` (T,), the duty factor ``duty`` (T,), the speed
         ``speed`` (T,) and the IK error ``ik_error`` (T, 4).
@@ -427,7 +470,9 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     dt = 1.0 / fps
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
-    plans = [ctl.step(script.command_at(k * dt), dt) for k in range(n)]
+    # frame 0 is the starting state; frame k follows k steps of dt
+    plans = [ctl.step(first, 0.0)]
+    plans += [ctl.step(script.command_at((k - 1) * dt), dt) for k in range(1, n)]
     plan = stack_plans(plans)
     local, root, err = ctl.pose(plan)
     return Motion(

@@ -18,7 +18,9 @@ oscillator is driven one way by the two left legs, so it follows the legs
 and never perturbs them.
 
 The state arrays may carry any leading batch shape (many characters).
-Integration is fixed-step RK4 with sub-steps.
+The amplitude equation has a closed-form solution, used exactly (so any
+starting amplitude converges, however stiff the gain); the phases are
+integrated by fixed-step RK4 with sub-steps.
 """
 
 from __future__ import annotations
@@ -57,18 +59,30 @@ class CPGParams:
     substeps: int = 2
 
 
-def _derivatives(theta, r, theta_s, r_s, omega, psi, p: CPGParams):
+def amplitude_after(r, t, p: CPGParams):
+    """Exact solution of ``dr/dt = a (mu - r^2) r`` after ``t`` seconds.
+
+    ``r(t)^2 = mu / (1 + (mu / r0^2 - 1) exp(-2 a mu t))``; ``r0 = 0`` stays 0
+    (the unstable fixed point), any ``r0 > 0`` tends to ``sqrt(mu)``.
+    """
+    r = np.asarray(r, dtype=float)
+    r2 = r * r
+    safe = np.where(r2 > 0, r2, 1.0)
+    decay = np.exp(-2.0 * p.gain * p.mu * t)
+    out = np.sqrt(p.mu / (1.0 + (p.mu / safe - 1.0) * decay))
+    return np.where(r2 > 0, out, 0.0)
+
+
+def _phase_derivatives(theta, r, theta_s, omega, psi, p: CPGParams):
     # theta (..., 4), r (..., 4), theta_s (...), omega (...), psi (..., 4)
     phi = TWO_PI * (psi[..., :, None] - psi[..., None, :])  # phi_ij
     diff = theta[..., None, :] - theta[..., :, None] - phi  # theta_j - theta_i - phi_ij
     dtheta = omega[..., None] + p.coupling * np.sum(r[..., None, :] * np.sin(diff), axis=-1)
-    dr = p.gain * (p.mu - r * r) * r
     # spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (i.e. theta_LH)
     drv = theta[..., _SPINE_DRIVERS] + TWO_PI * psi[..., _SPINE_DRIVERS]
     dtheta_s = omega + p.spine_coupling * np.sum(
         r[..., _SPINE_DRIVERS] * np.sin(drv - theta_s[..., None]), axis=-1)
-    dr_s = p.gain * (p.mu - r_s * r_s) * r_s
-    return dtheta, dr, dtheta_s, dr_s
+    return dtheta, dtheta_s
 
 
 def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGParams()):
@@ -97,17 +111,22 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGPara
     omega = np.asarray(omega, dtype=float)
     psi = np.asarray(psi, dtype=float)
     h = dt / params.substeps
+    theta = np.asarray(theta, dtype=float)
+    theta_s = np.asarray(theta_s, dtype=float)
     for _ in range(params.substeps):
-        k1 = _derivatives(theta, r, theta_s, r_s, omega, psi, params)
-        s2 = [x + 0.5 * h * k for x, k in zip((theta, r, theta_s, r_s), k1)]
-        k2 = _derivatives(*s2, omega, psi, params)
-        s3 = [x + 0.5 * h * k for x, k in zip((theta, r, theta_s, r_s), k2)]
-        k3 = _derivatives(*s3, omega, psi, params)
-        s4 = [x + h * k for x, k in zip((theta, r, theta_s, r_s), k3)]
-        k4 = _derivatives(*s4, omega, psi, params)
-        theta, r, theta_s, r_s = (
-            x + (h / 6.0) * (a + 2 * b + 2 * c + d)
-            for x, a, b, c, d in zip((theta, r, theta_s, r_s), k1, k2, k3, k4))
+        r_mid = amplitude_after(r, 0.5 * h, params)
+        r_end = amplitude_after(r, h, params)
+        k1 = _phase_derivatives(theta, r, theta_s, omega, psi, params)
+        k2 = _phase_derivatives(theta + 0.5 * h * k1[0], r_mid, theta_s + 0.5 * h * k1[1],
+                                omega, psi, params)
+        k3 = _phase_derivatives(theta + 0.5 * h * k2[0], r_mid, theta_s + 0.5 * h * k2[1],
+                                omega, psi, params)
+        k4 = _phase_derivatives(theta + h * k3[0], r_end, theta_s + h * k3[1],
+                                omega, psi, params)
+        theta = theta + (h / 6.0) * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        theta_s = theta_s + (h / 6.0) * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        r = r_end
+        r_s = amplitude_after(r_s, h, params)
     return theta, r, theta_s, r_s
 
 

@@ -29,6 +29,7 @@ def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
         raise ValueError(f"`points` needs at least 4 control points, got {K}")
     nseg = K - 3
     s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+    s = np.broadcast_to(s, np.broadcast_shapes(s.shape, P.shape[:-2]))
     x = s * nseg
     i = np.minimum(np.floor(x).astype(int), nseg - 1)
     t = (x - i)[..., None]

@@ -70,6 +70,7 @@ def rotate_y(vectors, angle):
     """Rotate ``(..., 3)`` vectors about +Y by ``angle`` (rad)."""
     v = np.asarray(vectors, dtype=float)
     a = np.asarray(angle, dtype=float)
+    v = np.broadcast_to(v, np.broadcast_shapes(v.shape, a.shape + (3,)))
     c, s = np.cos(a), np.sin(a)
     x = c * v[..., 0] + s * v[..., 2]
     z = -s * v[..., 0] + c * v[..., 2]

@@ -72,12 +72,17 @@ class LegSpec:
         Position in ``chain`` of the first joint of the two-bone pair.
     bend : float
         +1 when the pair's middle joint points forward (knee), -1 when back (elbow).
+    pre_gain, post_gain : float
+        Fraction of the leg's swing angle taken by the bones above and below
+        the two-bone pair (see :mod:`quadsim.kinematics.ik`).
     """
 
     name: str
     chain: np.ndarray
     ik_start: int
     bend: float
+    pre_gain: float = 0.6
+    post_gain: float = 0.5
 
     @property
     def top(self) -> int:
@@ -366,7 +371,18 @@ def character_from_dict(data: dict, src: str = "<character>") -> Character:
         bend = _need(t, "bend", where, str)
         if bend not in ("forward", "back"):
             raise InputError(f"{where}.bend must be \"forward\" or \"back\", got {bend!r}")
-        legs.append(LegSpec(leg, chain, k, 1.0 if bend == "forward" else -1.0))
+        gains = {}
+        for key in ("pre_gain", "post_gain"):
+            if key in t:
+                g = t[key]
+                if not isinstance(g, (int, float)) or not 0.0 <= g <= 1.0:
+                    raise InputError(f"{where}.{key} must be a number from 0 to 1, got {g!r}")
+                gains[key] = float(g)
+        unknown = set(t) - {"chain", "ik", "bend", "pre_gain", "post_gain"}
+        if unknown:
+            raise InputError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: chain, ik, "
+                             "bend, pre_gain, post_gain")
+        legs.append(LegSpec(leg, chain, k, 1.0 if bend == "forward" else -1.0, **gains))
 
     limits = {}
     for n, lim in data.get("limits", {}).items():

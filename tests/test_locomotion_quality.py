@@ -1,0 +1,251 @@
+"""The procedural engine's motion, measured from joint positions.
+
+Every figure here comes from the produced motion (foot and joint world
+positions, local rotations) through :mod:`quadsim.analysis.metrics`, never
+from the controller's own contact flags. The limits are the issue's:
+duty factor and phase within 0.05 of the gait table, root speed within 5 %,
+foot slide and ground penetration under 5 mm, and no joint angular
+acceleration during a transition above 3x the steady-state maxima of the two
+gaits involved.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from functools import lru_cache
+
+import numpy as np
+import pytest
+
+from quadsim import list_characters, load_character
+from quadsim.analysis import metrics as M
+from quadsim.locomotion import Command, Script, simulate
+from quadsim.locomotion.gaits import auto_gaits, gait_table
+
+FPS = 60
+SLIDE_LIMIT = 0.005  # m
+PENETRATION_LIMIT = 0.005  # m
+CHARACTERS = list_characters()
+
+
+def _gait_cases():
+    for name in CHARACTERS:
+        for gait in gait_table(load_character(name)):
+            yield name, gait
+
+
+@lru_cache(maxsize=None)
+def steady(character: str, gait: str, seconds: float = 14.0):
+    """A gait held at its preferred speed; the first 4 s (speed-up) are cut."""
+    ch = load_character(character)
+    g = gait_table(ch)[gait]
+    m = simulate(ch, Command(speed=g.preferred_speed, gait=gait), seconds, FPS)
+    return m.time_slice(4.0, seconds + 1.0)
+
+
+@lru_cache(maxsize=None)
+def steady_peak_acceleration(character: str, gait: str) -> float:
+    """Largest joint angular acceleration (rad/s^2) of a gait held steadily."""
+    return float(M.angular_acceleration(steady(character, gait)).max())
+
+
+def circular_distance(a, b):
+    return np.abs(np.mod(np.asarray(a) - np.asarray(b) + 0.5, 1.0) - 0.5)
+
+
+def slide_and_penetration(motion):
+    feet = motion.foot_positions()
+    contacts = M.foot_contacts(feet, motion.fps)
+    return M.foot_slide(feet, contacts)[1], M.ground_penetration(feet)
+
+
+# --------------------------------------------------------------- steady gaits
+@pytest.mark.parametrize("character,gait", list(_gait_cases()))
+def test_steady_gait_realises_its_footfall_table(character, gait):
+    """10 s of each gait: duty, phases and speed as the table says; feet planted."""
+    m = steady(character, gait)
+    g = gait_table(load_character(character))[gait]
+    v = g.preferred_speed
+    feet = m.foot_positions()
+    contacts = M.foot_contacts(feet, FPS)
+    duty = M.duty_factors(contacts, FPS, feet)
+    phase = M.phases(contacts, FPS, feet)
+    assert np.all(np.abs(duty - g.duty(v)) < 0.05), (duty, g.duty(v))
+    assert np.all(circular_distance(phase, g.phases) < 0.05), (phase, g.phases)
+    speed, _ = M.root_speed(m.root_positions, FPS)
+    assert abs(speed / v - 1.0) < 0.05
+    slide, pen = slide_and_penetration(m)
+    assert slide < SLIDE_LIMIT
+    assert pen < PENETRATION_LIMIT
+
+
+@pytest.mark.parametrize("character,gait", list(_gait_cases()))
+def test_feet_clear_the_ground_in_every_swing(character, gait):
+    m = steady(character, gait)
+    g = gait_table(load_character(character))[gait]
+    feet = m.foot_positions()
+    contacts = M.foot_contacts(feet, FPS)
+    for leg, intervals in enumerate(M.contact_intervals(contacts)):
+        for (_, end), (start, _) in zip(intervals[:-1], intervals[1:]):
+            peak = feet[end:start, leg, 1].max()
+            assert peak > 0.3 * g.swing_height, (leg, peak, g.swing_height)
+
+
+# ------------------------------------------------------------ transitions
+def _ramp_script(ch) -> tuple[Script, float]:
+    table = gait_table(ch)
+    auto = auto_gaits(ch)
+    lo = table[auto[0]].speed_range[0]
+    hi = table[auto[-1]].speed_range[1]
+    ups = np.linspace(lo, hi, 25)
+    speeds = np.concatenate([ups, ups[::-1]])  # the top is held for two steps
+    times = tuple(float(t) for t in np.arange(len(speeds)) * 0.6)
+    return Script(times, tuple(Command(speed=float(v)) for v in speeds)), times[-1] + 3.0
+
+
+@pytest.mark.parametrize("character", CHARACTERS)
+def test_speed_ramp_walk_to_gallop_and_back_is_smooth(character):
+    ch = load_character(character)
+    script, seconds = _ramp_script(ch)
+    m = simulate(ch, script, seconds, FPS)
+    auto = auto_gaits(ch)
+    peak = max(steady_peak_acceleration(character, g) for g in auto)
+    acc = M.angular_acceleration(m)
+    assert acc.max() < 3.0 * peak
+    slide, pen = slide_and_penetration(m)
+    assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT
+    # at the top the measured footfalls are the fastest automatic gait's
+    top = gait_table(ch)[auto[-1]]
+    t_top = script.times[25]
+    seg = m.time_slice(t_top - 1.5, t_top + 0.6)
+    feet = seg.foot_positions()
+    phase = M.phases(M.foot_contacts(feet, FPS), FPS, feet)
+    assert np.all(circular_distance(phase, top.phases) < 0.05), (phase, top.phases)
+
+
+def _pairs(character):
+    names = list(gait_table(load_character(character)))
+    return list(itertools.permutations(names, 2))
+
+
+@pytest.mark.parametrize("character", CHARACTERS)
+def test_every_requested_gait_change_is_smooth_and_lands_in_the_new_gait(character):
+    """All ordered pairs, each requested at a different phase of the stride."""
+    ch = load_character(character)
+    table = gait_table(ch)
+    failures = []
+    for k, (a, b) in enumerate(_pairs(character)):
+        t_req = 4.0 + 0.137 * (k % 7)  # spread the request over the stride
+        script = Script((0.0, t_req), (Command(speed=table[a].preferred_speed, gait=a),
+                                       Command(speed=table[b].preferred_speed, gait=b)))
+        m = simulate(ch, script, t_req + 6.5, FPS)
+        part = m.time_slice(t_req - 0.5, t_req + 6.5)
+        acc = M.angular_acceleration(part).max()
+        limit = 3.0 * max(steady_peak_acceleration(character, a),
+                          steady_peak_acceleration(character, b))
+        slide, pen = slide_and_penetration(part)
+        end = m.time_slice(t_req + 4.0, t_req + 6.5)
+        feet = end.foot_positions()
+        contacts = M.foot_contacts(feet, FPS)
+        phase = M.phases(contacts, FPS, feet)
+        ok_phase = np.all(circular_distance(phase, table[b].phases) < 0.05)
+        if not (acc < limit and slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT and ok_phase):
+            failures.append((a, b, round(acc / limit * 3, 2), round(slide * 1e3, 2),
+                             round(pen * 1e3, 2), np.round(phase, 3).tolist()))
+    assert not failures, failures
+
+
+# ------------------------------------------------------------------- turning
+@pytest.mark.parametrize("character", CHARACTERS)
+@pytest.mark.parametrize("gait", ["walk", "trot", "gallop"])
+def test_turning_at_the_maximum_rate_follows_the_command(character, gait):
+    from quadsim.locomotion import ProceduralController
+
+    ch = load_character(character)
+    table = gait_table(ch)
+    name = gait if gait != "gallop" else auto_gaits(ch)[-1]
+    v = table[name].preferred_speed
+    rate = ProceduralController(ch).max_turn_rate_at(v)
+    assert rate <= math.radians(ch.locomotion["max_turn_rate_deg_s"])
+    script = Script((0.0, 3.0), (Command(speed=v, gait=name),
+                                 Command(speed=v, gait=name, turn_rate=rate)))
+    m = simulate(ch, script, 9.0, FPS)
+    turn = m.time_slice(5.0, 9.0)
+    P = turn.world_positions()
+    d = P[:, ch.spine[1]] - P[:, ch.spine[0]]
+    heading = np.unwrap(np.arctan2(d[:, 0], d[:, 2]))
+    measured = np.polyfit(turn.times, heading, 1)[0]  # mean yaw rate, sway averaged out
+    assert measured == pytest.approx(rate, rel=0.1)
+    slide, pen = slide_and_penetration(turn)
+    assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT
+
+
+# -------------------------------------------------------------------- spine
+def spine_pitch_swing(m, ch) -> float:
+    """Peak-to-peak angle between pelvis and thorax in the sagittal plane (deg)."""
+    P = m.world_positions()
+    s = ch.spine
+
+    def pitch(a, b):
+        d = P[:, b] - P[:, a]
+        return np.arctan2(d[:, 1], np.hypot(d[:, 0], d[:, 2]))
+
+    bend = pitch(s[-2], s[-1]) - pitch(s[0], s[1])
+    return float(np.degrees(np.ptp(bend)))
+
+
+def test_leopard_flexes_its_back_strongly_in_the_gallop_and_the_horse_does_not():
+    leo = spine_pitch_swing(steady("leopard", "rotary_gallop"), load_character("leopard"))
+    horse = spine_pitch_swing(steady("horse", "transverse_gallop"), load_character("horse"))
+    walk = spine_pitch_swing(steady("leopard", "walk"), load_character("leopard"))
+    assert leo > 25.0
+    assert horse < 8.0
+    assert 5.0 < walk < leo
+
+
+# ------------------------------------------------------------------ commands
+def test_bad_commands_raise_or_clamp_with_a_warning():
+    from quadsim.errors import InputError
+    from quadsim.locomotion import ProceduralController, QuadsimClampWarning
+
+    ch = load_character("leopard")
+    with pytest.raises(ValueError, match="speed must be >= 0"):
+        Command(speed=-1.0)
+    with pytest.raises(ValueError, match="finite"):
+        Command(speed=float("nan"))
+    with pytest.raises(ValueError, match="finite"):
+        Command(speed=1.0, turn_rate=float("inf"))
+    ctl = ProceduralController(ch)
+    with pytest.raises(InputError, match="unknown gait 'flying'"):
+        ctl.step(Command(speed=1.0, gait="flying"))
+    with pytest.warns(QuadsimClampWarning, match="clamped"):
+        ctl.step(Command(speed=1000.0))
+    with pytest.warns(QuadsimClampWarning, match="turn rate .* clamped"):
+        ctl.step(Command(speed=1.0, turn_rate=100.0))
+
+
+def test_same_script_gives_the_same_motion_bit_for_bit():
+    ch = load_character("dog_cub")
+    s = Script((0.0, 2.0), (Command(speed=1.0), Command(speed=3.0, turn_rate=0.5)))
+    a = simulate(ch, s, 4.0, FPS, seed=3)
+    b = simulate(ch, s, 4.0, FPS, seed=3)
+    assert np.array_equal(a.rotations, b.rotations)
+    assert np.array_equal(a.root_positions, b.root_positions)
+
+
+def test_frame_rate_changes_the_motion_only_by_integration_error():
+    ch = load_character("leopard")
+    cmd = Command(speed=2.5, gait="trot")
+    feet = {}
+    for fps in (30, 60, 120):
+        m = simulate(ch, cmd, 10.0, fps)
+        part = m.time_slice(4.0, 10.0)
+        f = part.foot_positions()
+        c = M.foot_contacts(f, fps)
+        feet[fps] = (M.duty_factors(c, fps, f), M.stride_frequency(c, fps, f),
+                     m.time_slice(9.0, 9.5).root_positions[0])
+    for fps in (30, 120):
+        assert np.allclose(feet[fps][0], feet[60][0], atol=0.03)
+        assert feet[fps][1] == pytest.approx(feet[60][1], rel=0.02)
+        assert np.allclose(feet[fps][2], feet[60][2], atol=0.02)
