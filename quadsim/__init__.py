@@ -5,7 +5,7 @@ Conventions (see ``quadsim.frames``): SI units, right-handed world frame with
 quaternions stored as (w, x, y, z).
 """
 
-from quadsim.skeleton import Character, Motion, Skeleton, load_character, list_characters
+from quadsim.skeleton import Character, Motion, Skeleton, list_characters, load_character
 
-__all__ = ["Character", "Motion", "Skeleton", "load_character", "list_characters"]
+__all__ = ["Character", "Motion", "Skeleton", "list_characters", "load_character"]
 __version__ = "0.1.0"

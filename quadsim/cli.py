@@ -2,11 +2,15 @@
 
 ::
 
-    quadsim run CONFIG [--out FILE.bvh] [--seconds S] [--fps N] [--speed M_PER_S]
+    quadsim run CONFIG [--out FILE.bvh|.glb|.npz|.csv] [--seconds S] [--fps N] [--speed M_PER_S]
                        [--gait NAME] [--turn-rate DEG_PER_S] [--units m|cm]
     quadsim characters
     quadsim validate CONFIG
     quadsim metrics FILE.bvh [--json] [--start S] [--units m|cm]
+    quadsim diagram CONFIG|FILE.bvh [--out FILE.png|.svg|.pdf] [--seconds S]
+    quadsim preview CONFIG|CHARACTER [--size WxH] [--camera follow|side|top]
+    quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
+                   [--camera follow|side|top] [--fps N]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
 with a one-paragraph message on stderr that starts with ``quadsim: error:``.
@@ -48,8 +52,35 @@ def _write_bvh(motion, path: Path, units: str) -> None:
     write_bvh(motion, path, units=units)
 
 
+def _metres_only(kind: str, units: str) -> None:
+    if units != "m":
+        print(f"{PROG}: warning: {kind} files are always in metres; units {units!r} "
+              "apply to .bvh files only", file=sys.stderr)
+
+
+def _write_glb(motion, path: Path, units: str) -> None:
+    from quadsim.io.gltf import write_glb
+
+    _metres_only(".glb", units)
+    write_glb(motion, path)
+
+
+def _write_npz(motion, path: Path, units: str) -> None:
+    from quadsim.io.npz import write_npz
+
+    _metres_only(".npz", units)
+    write_npz(motion, path)
+
+
+def _write_csv(motion, path: Path, units: str) -> None:
+    from quadsim.io.npz import write_csv
+
+    _metres_only(".csv", units)
+    write_csv(motion, path)
+
+
 #: Output writers by file extension: ``writer(motion, path, units)``.
-WRITERS = {".bvh": _write_bvh}
+WRITERS = {".bvh": _write_bvh, ".glb": _write_glb, ".npz": _write_npz, ".csv": _write_csv}
 
 
 def _writer_for(path: Path):
@@ -176,6 +207,134 @@ def _gaits_used(motion) -> list[str]:
     return seen
 
 
+# ------------------------------------------------------- seeing motion (viz)
+def _motion_source(source: str, seconds: float | None, units: str = "m"):
+    """A motion from a BVH file (cut to ``seconds``) or a simulated config."""
+    path = Path(source)
+    if path.suffix.lower() == ".bvh":
+        from quadsim.io.bvh import read_bvh
+
+        if not path.is_file():
+            raise InputError(f"{path}: no such file")
+        motion = read_bvh(path, units=units)
+        if seconds is not None:
+            if not (math.isfinite(seconds) and seconds > 0):
+                raise InputError(f"`--seconds` = {seconds}: must be a positive duration")
+            motion = motion.time_slice(0.0, seconds + 0.5 / motion.fps)
+        return motion
+    from quadsim.config import load_config, with_overrides
+    from quadsim.locomotion import simulate
+
+    config = with_overrides(load_config(path), duration=seconds)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        motion = simulate(config.load_character(), config.commands, config.duration,
+                          config.fps, seed=config.seed)
+    for w in caught:
+        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+    return motion
+
+
+def cmd_diagram(args) -> int:
+    from quadsim.viz.diagram import FORMATS, gait_diagram
+
+    out = Path(args.out) if args.out else Path("out") / f"{Path(args.source).stem}-diagram.png"
+    if out.suffix.lower() not in FORMATS:
+        raise InputError(f"`--out` {str(out)!r}: a diagram is written as "
+                         f"{', '.join(FORMATS)}")
+    motion = _motion_source(args.source, args.seconds, args.units)
+    try:
+        data_path = gait_diagram(motion, out, title=f"{Path(args.source).name}: footfalls "
+                                 "measured from the foot positions")
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    print(f"wrote {data_path}: {motion.n_frames} frames, {motion.duration:.2f} s")
+    return 0
+
+
+def cmd_preview(args) -> int:
+    from quadsim.viz.scene import parse_size
+
+    try:
+        size = parse_size(args.size)
+    except ValueError as e:
+        raise InputError(f"`--size`: {e}") from None
+    if args.screenshot is None:
+        from quadsim.viz.preview import display_available
+
+        if not display_available():
+            raise InputError("no display to open the preview window on (DISPLAY and "
+                             "WAYLAND_DISPLAY are unset); run it on a desktop, render a "
+                             "video off screen with `quadsim render`, or take a picture "
+                             "with `--screenshot FILE.png`")
+    source = args.source
+    if not source.endswith(".toml"):
+        from quadsim.skeleton.character import load_character
+
+        source = load_character(source)  # an identifier; InputError lists the known ones
+    elif not Path(source).is_file():
+        raise InputError(f"{source}: no such config file")
+    from quadsim.viz.preview import Preview
+
+    off = args.screenshot is not None
+    pv = Preview(source, size=size, off_screen=off, camera=args.camera,
+                 record_dir=args.record_dir)
+    if not off:
+        print(f"{PROG}: preview of {pv.character.name}: H for help, Q to quit",
+              file=sys.stderr)
+        pv.run()
+        if pv.last_recording is not None:
+            print(f"last recording: {pv.last_recording}")
+        return 0
+    seconds = 3.0 if args.seconds is None else args.seconds
+    if not (math.isfinite(seconds) and 0 <= seconds <= 600):
+        raise InputError(f"`--seconds` = {seconds}: must be from 0 to 600 s")
+    for _ in range(round(seconds / pv.dt)):
+        pv.update(pv.dt)
+    shot = Path(args.screenshot)
+    shot.parent.mkdir(parents=True, exist_ok=True)
+    pv.screenshot(shot)
+    pv.close()
+    print(f"wrote {shot}: {pv.character.id} after {seconds:g} s, gait {pv.gait}, "
+          f"{pv.speed:.2f} m/s")
+    return 0
+
+
+def cmd_render(args) -> int:
+    from quadsim.viz.render import FORMATS, render_video
+    from quadsim.viz.scene import parse_size
+
+    out = Path(args.out) if args.out else Path("out") / f"{Path(args.source).stem}.mp4"
+    if out.suffix.lower() not in FORMATS:
+        raise InputError(f"`--out` {str(out)!r}: a video is written as {', '.join(FORMATS)}")
+    try:
+        size = parse_size(args.size)
+    except ValueError as e:
+        raise InputError(f"`--size`: {e}") from None
+    if out.suffix.lower() == ".mp4" and (size[0] % 2 or size[1] % 2):
+        raise InputError(f"`--size` {size[0]}x{size[1]}: an .mp4 needs an even width and "
+                         "height")
+    if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= 240):
+        raise InputError(f"`--fps` = {args.fps}: must be from 0 to 240 frames per second")
+    motion = _motion_source(args.source, args.seconds, args.units)
+    if args.fps is None and Path(args.source).suffix.lower() != ".bvh":
+        from quadsim.viz.render import DEFAULT_FPS
+
+        fps = DEFAULT_FPS[out.suffix.lower()]
+    else:
+        fps = args.fps
+    if fps is not None and abs(fps - motion.fps) > 1e-9:
+        motion = motion.resample(fps)
+    try:
+        path = render_video(motion, out, size=size, camera=args.camera,
+                            progress=not args.quiet)
+    except ValueError as e:
+        raise InputError(str(e)) from None
+    print(f"wrote {path}: {len(motion)} frames at {motion.fps:g} fps, {size[0]}x{size[1]}, "
+          f"camera {args.camera}")
+    return 0
+
+
 # ------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Kinematic quadruped locomotion: generate, check and "
@@ -189,7 +348,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "constant command; --gait alone uses that gait's preferred speed.")
     r.add_argument("config", metavar="CONFIG", help="run configuration (TOML)")
     r.add_argument("--out", metavar="FILE",
-                   help="output file, by extension: .bvh (default out/<config name>.bvh)")
+                   help="output file, by extension: .bvh, .glb, .npz or .csv "
+                   "(default out/<config name>.bvh)")
     r.add_argument("--seconds", type=float, metavar="S", help="duration (s), replaces the config's")
     r.add_argument("--fps", type=float, metavar="N", help="frames per second")
     r.add_argument("--speed", type=float, metavar="M_PER_S", help="constant speed (m/s)")
@@ -215,6 +375,54 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--units", choices=("m", "cm"), default="m",
                    help="length unit of the file (default m)")
     m.set_defaults(func=cmd_metrics)
+
+    d = sub.add_parser("diagram", help="draw the gait diagram of a config or a BVH file",
+                       description="Footfall diagram measured from the foot positions, with "
+                       "gait names, stride duty factors and phases, a Hildebrand plot, and "
+                       "the CPG phases and spine angle (configs). A config is simulated first.")
+    d.add_argument("source", metavar="CONFIG|FILE.bvh")
+    d.add_argument("--out", metavar="FILE", help="image file: .png, .svg or .pdf "
+                   "(default out/<name>-diagram.png)")
+    d.add_argument("--seconds", type=float, metavar="S",
+                   help="duration: replaces a config's, cuts a BVH file")
+    d.add_argument("--units", choices=("m", "cm"), default="m",
+                   help="length unit of a BVH file (default m)")
+    d.set_defaults(func=cmd_diagram)
+
+    pr = sub.add_parser("preview", help="steer a character live in a window",
+                        description="Open an interactive pyvista window: Up/Down speed, "
+                        "Left/Right turn, 1-9 gait (0 automatic), Space leap request, "
+                        "P pause, R record to BVH, H help, Q quit. A config's commands play "
+                        "until the first steering key.")
+    pr.add_argument("source", metavar="CONFIG|CHARACTER",
+                    help="a run configuration (TOML) or a character identifier")
+    pr.add_argument("--size", default="960x640", metavar="WxH", help="window size (960x640)")
+    pr.add_argument("--camera", choices=("follow", "side", "top"), default="follow")
+    pr.add_argument("--record-dir", default="out", metavar="DIR",
+                    help="folder for recordings (default out)")
+    pr.add_argument("--screenshot", metavar="FILE.png",
+                    help="no window: run off screen for --seconds and save the last frame")
+    pr.add_argument("--seconds", type=float, metavar="S",
+                    help="with --screenshot: seconds to run first (default 3)")
+    pr.set_defaults(func=cmd_preview)
+
+    rd = sub.add_parser("render", help="render a video of a config or a BVH file off screen",
+                        description="Render the motion off screen to an .mp4 (H.264) or a "
+                        ".gif, with a progress bar on stderr. A config is simulated first "
+                        "and shown at 30 fps (.mp4) or 25 fps (.gif).")
+    rd.add_argument("source", metavar="CONFIG|FILE.bvh")
+    rd.add_argument("--out", metavar="FILE", help="video file: .mp4 or .gif "
+                    "(default out/<name>.mp4)")
+    rd.add_argument("--seconds", type=float, metavar="S",
+                    help="duration: replaces a config's, cuts a BVH file")
+    rd.add_argument("--size", default="640x480", metavar="WxH", help="frame size (640x480)")
+    rd.add_argument("--camera", choices=("follow", "side", "top"), default="follow",
+                    help="follow (behind-left, turning with it), side or top")
+    rd.add_argument("--fps", type=float, metavar="N", help="video frame rate")
+    rd.add_argument("--units", choices=("m", "cm"), default="m",
+                    help="length unit of a BVH file (default m)")
+    rd.add_argument("--quiet", action="store_true", help="no progress bar")
+    rd.set_defaults(func=cmd_render)
     return p
 
 

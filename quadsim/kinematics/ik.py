@@ -69,6 +69,10 @@ class LegGeometry:
         In-plane rest angle of the foot joint's end site (rad).
     rest_leg_angle : float
         In-plane angle from the top joint to the foot at rest (rad).
+    lower, upper : ndarray, shape (n,)
+        Flexion limits (rad) of the joint that turns each bone (``chain[k]``),
+        relative to rest; infinite where the character gives none. The post
+        joints are kept inside theirs.
     """
 
     chain: np.ndarray
@@ -83,6 +87,14 @@ class LegGeometry:
     post_gain: float
     toe_angle: float
     rest_leg_angle: float
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @property
+    def limited(self) -> bool:
+        """Whether any post joint has a finite flexion limit."""
+        return bool(np.any(np.isfinite(self.lower[self.pair + 2:]))
+                    or np.any(np.isfinite(self.upper[self.pair + 2:])))
 
     @property
     def n_bones(self) -> int:
@@ -122,11 +134,42 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     end = sk.end_sites.get(foot, np.array([0.0, 0.0, 1.0]))
     toe = float(np.arctan2(end[2], -end[1]))
     rel = offs.sum(0)
+    lower = np.full(n, -np.inf)
+    upper = np.full(n, np.inf)
+    for k in range(n):
+        lim = character.limits.get(int(chain[k]))
+        if lim is not None:
+            lower[k], upper[k] = lim
     return LegGeometry(
         chain=chain, parent=int(sk.parents[chain[0]]), top_offset=sk.offsets[chain[0]].copy(),
         lengths=lengths, rest_angles=rest, pair=leg.ik_start, bend=leg.bend, fold=fold,
-        pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe, rest_leg_angle=float(np.arctan2(rel[2], -rel[1])),
+        pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe,
+        rest_leg_angle=float(np.arctan2(rel[2], -rel[1])), lower=lower, upper=upper,
     )
+
+
+def _solve_pair(geom: LegGeometry, phi, qd, qf, down_t, fwd_t):
+    """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
+
+    The pair runs from Q (below the pre bones) to C (the target less the
+    post bones). Returns how far the foot falls short of the target (m).
+    """
+    L = geom.lengths
+    k0 = geom.pair
+    post = slice(k0 + 2, None)
+    cd = down_t - np.sum(L[post] * np.cos(phi[..., post]), axis=-1)
+    cf = fwd_t - np.sum(L[post] * np.sin(phi[..., post]), axis=-1)
+    l1, l2 = L[k0], L[k0 + 1]
+    vd, vf = cd - qd, cf - qf
+    r_true = np.hypot(vd, vf)
+    r = np.clip(r_true, abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
+    gam = np.arctan2(vf, vd)
+    cos_delta = np.clip((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0, 1.0)
+    phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
+    bd = qd + l1 * np.cos(phi[..., k0])
+    bf = qf + l1 * np.sin(phi[..., k0])
+    phi[..., k0 + 1] = np.arctan2(qf + r * np.sin(gam) - bf, qd + r * np.cos(gam) - bd)
+    return np.abs(r_true - r)
 
 
 def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
@@ -190,29 +233,22 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
         phi[..., k] = A0[k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
         qd = qd + L[k] * np.cos(phi[..., k])
         qf = qf + L[k] * np.sin(phi[..., k])
-    # post bones: rest angle to the world vertical, plus the swing fold
+    # post bones: rest angle to the world vertical, turned with the leg, plus
+    # the swing fold
     fold = np.asarray(fold, dtype=float)
-    cd = down_t.copy()
-    cf = fwd_t.copy()
     for k in range(k0 + 2, n):
         phi[..., k] = (A0[k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
                        + geom.fold[k] * fold)
-        cd = cd - L[k] * np.cos(phi[..., k])
-        cf = cf - L[k] * np.sin(phi[..., k])
-    # two-bone pair from Q to C
-    l1, l2 = L[k0], L[k0 + 1]
-    vd, vf = cd - qd, cf - qf
-    r_true = np.hypot(vd, vf)
-    r = np.clip(r_true, abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
-    gam = np.arctan2(vf, vd)
-    cos_delta = np.clip((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0, 1.0)
-    phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
-    bd = qd + l1 * np.cos(phi[..., k0])
-    bf = qf + l1 * np.sin(phi[..., k0])
-    ed = qd + r * np.cos(gam)
-    ef = qf + r * np.sin(gam)
-    phi[..., k0 + 1] = np.arctan2(ef - bf, ed - bd)
-    reached = np.abs(r_true - r)
+    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+    # keep the post joints inside their limits relative to the bone above,
+    # then solve the pair again for the moved post bones (twice: the second
+    # pass corrects the small change the re-solved pair makes)
+    for _ in range(2 if geom.limited else 0):
+        for k in range(k0 + 2, n):
+            rel = (A0[k] - phi[..., k]) - (A0[k - 1] - phi[..., k - 1])
+            rel = np.clip(rel, geom.lower[k], geom.upper[k])
+            phi[..., k] = A0[k] - (A0[k - 1] - phi[..., k - 1]) - rel
+        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
 
     theta = A0 - phi  # cumulative rotation about +X of each chain joint
     toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)

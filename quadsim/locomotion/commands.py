@@ -68,7 +68,7 @@ class Script:
             raise ValueError("script times must start at 0 and increase")
 
     @classmethod
-    def constant(cls, command: Command) -> "Script":
+    def constant(cls, command: Command) -> Script:
         return cls((0.0,), (command,))
 
     def command_at(self, t: float) -> Command:

@@ -29,23 +29,44 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from quadsim.frames import FORE, GRAVITY, Y, heading_vector, wrap_angle
+from quadsim.frames import FORE, Y, heading_vector
+from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.commands import Command, Script
 from quadsim.locomotion.cpg import TWO_PI, CPGParams, cpg_step
 from quadsim.locomotion.footpath import swing_position
-from quadsim.locomotion.gaits import auto_gaits, gait_table, max_speed, resolve_gait_name
-from quadsim.kinematics.ik import solve_leg
+from quadsim.locomotion.gaits import (
+    Gait,
+    auto_gaits,
+    gait_table,
+    max_speed,
+    resolve_gait_name,
+)
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.spine import flex_angle, rate_limited, spine_state, spine_target
-from quadsim.locomotion.transition import GaitScheduler
+from quadsim.locomotion.transition import GaitParams, GaitScheduler
 from quadsim.locomotion.turning import arc_advance, rotate_y, turn_rate_towards
 from quadsim.skeleton.character import Character
+from quadsim.skeleton.fk import forward_kinematics
 from quadsim.skeleton.motion import Motion
+
+#: Shortest swing, as a fraction of the stride, worth lifting a foot for.
+MIN_SWING = 0.12
+
+#: The standing state: every foot planted (duty factor 1), entered when the
+#: commanded speed is zero and left when it is not.
+STAND = "stand"
+
+
+def _standing(slowest: Gait) -> Gait:
+    """A gait with duty factor 1 on the slowest gait's clock: once its
+    transition ends no foot lifts, so the character stands."""
+    return replace(slowest, name=STAND, duty_range=(1.0, 1.0), spine_amplitude=0.0,
+                   drop=0.0)
 
 
 class QuadsimClampWarning(UserWarning):
@@ -84,7 +105,7 @@ class ControllerSettings:
     max_bend: float = math.radians(35.0)
     max_sway: float = math.radians(6.0)
     tail_lag: float = 0.08
-    cpg: CPGParams = CPGParams()
+    cpg: CPGParams = field(default_factory=CPGParams)
 
 
 class ProceduralController:
@@ -109,9 +130,11 @@ class ProceduralController:
         self.character = character
         self.dt = float(dt)
         self.settings = settings or ControllerSettings()
-        self.gaits = gait_table(character)
+        self.gaits = dict(gait_table(character))
         self.auto = auto_gaits(character)
-        start = resolve_gait_name(gait, character) if gait else self.auto[0]
+        self.gaits[STAND] = _standing(self.gaits[self.auto[0]])
+        self.stand_speed = 0.3 * self.gaits[self.auto[0]].speed_range[0]
+        start = resolve_gait_name(gait, character) if gait else STAND
         self.scheduler = GaitScheduler(self.gaits, self.auto, start)
         self.poser = Poser.for_character(character)
         self.max_speed = max_speed(character)
@@ -239,6 +262,33 @@ class ProceduralController:
         margin = self.settings.reach_margin - 0.05 * bound
         return 2.0 * margin * half / max(duty, 1e-3)
 
+    def _trailing_room(self) -> np.ndarray:
+        """How far (m) each foot may still fall behind its girdle before it is out
+        of reach, shape (4,); the body may vault by the planned allowance."""
+        p = self.params
+        keys, kh = self._key_points(self.root_xz, self.heading, self.bend)
+        g = np.where(FORE, 1, 0)
+        mid = keys[g] + rotate_y(self.foot_offset, kh[g])
+        along = np.einsum("ij,ij->i", self.planted - mid, heading_vector(kh[g]))
+        drop = max(p.drop + self.settings.vault, float(np.max(self.drops_now)))
+        return np.interp(drop, self.drops, self.half_sweep.min(axis=1)) + along
+
+    def _reach_governor(self, dt: float) -> float:
+        """Fastest speed (m/s) at which no planted foot falls out of reach before
+        it lifts off.
+
+        In steady locomotion the stride limit already guarantees this and the
+        cap is far above the speed; it acts when feet stay planted longer than
+        a stride planned for (a skipped step as the character starts or stops).
+        """
+        p = self.params
+        u = np.mod(self.theta / TWO_PI, 1.0)
+        lifts = (u < p.duty) & (1.0 - MIN_SWING >= p.duty)
+        t_lo = np.where(lifts, p.duty - u, 1.0 - u + min(p.duty, 1.0 - MIN_SWING)) / self.freq
+        room = self._trailing_room()
+        caps = np.maximum(room, 0.0) / np.maximum(t_lo, dt)
+        return float(np.min(np.where(self.stance, caps, np.inf)))
+
     def needed_drop(self, leg: int, offset: float) -> float:
         """Body drop (fraction of pelvis height) at which a planted foot ``offset``
         metres fore or aft of its mid-stance point is within the leg's reach margin."""
@@ -246,17 +296,36 @@ class ProceduralController:
         return float(np.interp(x, self.half_sweep[:, leg], self.drops))
 
     # ------------------------------------------------------------ stepping
-    def step(self, command: Command, dt: float | None = None) -> dict:
-        """Advance one step under ``command``; return this frame's plan.
+    def step(self, command: Command, dt: float | None = None, *, pose: bool = True) -> dict:
+        """Advance one step of ``dt`` seconds under ``command``.
 
-        The plan (a dict of arrays, see :data:`quadsim.locomotion.posing.PLAN_FIELDS`,
-        plus ``contacts``, ``gait``, ``phase``, ``speed``, ``spine``) can be
-        posed with :meth:`pose`.
+        Returns
+        -------
+        frame : dict
+            This frame's plan (arrays, see
+            :data:`quadsim.locomotion.posing.PLAN_FIELDS`, plus ``contacts``
+            (4,), ``gait`` (label), ``phase`` (4,) CPG stride fractions,
+            ``speed``, ``duty``, ``spine``) and, with ``pose=True``, the posed
+            skeleton: ``local_rotations`` (J, 3, 3), ``positions`` (J, 3)
+            joint world positions (m) and ``ik_error`` (4,) (m).
+            :func:`simulate` steps with ``pose=False`` and poses all frames
+            at once at the end.
         """
+        frame = self._advance(command, dt)
+        if pose:
+            local, root, err = self.poser.pose(stack_plans([frame]))
+            _, P = forward_kinematics(self.character.skeleton, local, root)
+            frame["local_rotations"] = local[0]
+            frame["positions"] = P[0]
+            frame["ik_error"] = err[0]
+        return frame
+
+    def _advance(self, command: Command, dt: float | None) -> dict:
         dt = self.dt if dt is None else float(dt)
         s = self.settings
         # 1. speed and turning -------------------------------------------
         v_cmd = float(command.speed)
+        halt = v_cmd <= 1e-9
         if command.gait:
             cap = self.gait_speed_cap(resolve_gait_name(command.gait, self.character))
             if v_cmd > cap:
@@ -268,6 +337,12 @@ class ProceduralController:
             self._warn("speed", f"speed {v_cmd:.2f} m/s is above {self.character.id}'s fastest "
                        f"gait ({self.max_speed:.2f} m/s); clamped to {self.max_speed:.2f} m/s")
             v_cmd = self.max_speed
+        sch = self.scheduler
+        if sch.current == STAND or (sch.in_transition and sch.source_name == STAND):
+            # feet planted: set off only as fast as the legs start to step
+            progress = min(sch.elapsed / sch.duration, 1.0) if sch.in_transition else 0.0
+            v_cmd = min(v_cmd, max(progress, 0.0) ** 2 * self.gaits[self.auto[0]].speed_range[1])
+        v_cmd = min(v_cmd, self._reach_governor(dt))
         dv = np.clip(v_cmd - self.speed, -s.acceleration * dt, s.acceleration * dt)
         v_before = self.speed
         self.speed = max(self.speed + float(dv), 0.0)
@@ -291,9 +366,13 @@ class ProceduralController:
             # gaits first, then change (a fast gait may start at any speed)
             if v > self.gait_speed_cap(wanted):
                 wanted = self.scheduler.auto_choice(v)
+        elif halt and v <= self.stand_speed:
+            wanted = STAND
         else:
             wanted = self.scheduler.auto_choice(v)
-        p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3))
+        # setting off from a stand is quick: the first steps come at once
+        quick = 0.6 if self.scheduler.current == STAND else None
+        p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3), quick)
         self.params = p
         lam = min(p.stride_length(v, self.h),
                   self.stride_limit(p.duty, p.drop + s.vault, p.bound))
@@ -322,17 +401,30 @@ class ProceduralController:
 
         # 5. feet ---------------------------------------------------------------
         u = np.mod(self.theta / TWO_PI, 1.0)
-        stance_time = p.duty / self.freq
+        # a foot landing now stays down until the duty factor it will end with:
+        # during a transition towards a longer stance, plan for the longer one
+        final = GaitParams.of(self.gaits[self.scheduler.current], v)
+        stance_time = max(p.duty, min(final.duty, 1.0 - MIN_SWING)) / self.freq
+        trailing = self._trailing_room() < v * dt  # out of reach by the next frame
         for i in range(4):
             if self.stance[i]:
-                if u[i] >= p.duty and u[i] < 1.0 and self.theta[i] - self.theta_td[i] > 1e-9:
+                # lift off when the stride fraction passes the duty factor, unless
+                # too little of the stride is left for a real step (then the foot
+                # stays down for this stride: a duty factor near 1 is standing);
+                # a foot about to trail out of reach lifts at once (a reflex that
+                # only acts in transitions and starts)
+                due = p.duty <= u[i] <= 1.0 - MIN_SWING
+                if ((due or trailing[i]) and self.theta[i] - self.theta_td[i] > 1e-9):
                     self.stance[i] = False
                     self.liftoff[i] = self.planted[i]
                     # lift-off at the moment the stride fraction crossed the duty
                     # factor during this step (or now, if the duty factor fell)
                     cross = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + p.duty)
-                    self.theta_lo[i] = cross if cross > theta_prev[i] else self.theta[i]
-                    self.theta_td[i] = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + 1.0)
+                    self.theta_lo[i] = cross if due and cross > theta_prev[i] else self.theta[i]
+                    td = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + 1.0)
+                    if td - self.theta[i] < TWO_PI * MIN_SWING:
+                        td += TWO_PI  # too little left of this stride: land on the next
+                    self.theta_td[i] = td
                     self.swing_s[i] = 0.0
             if not self.stance[i]:
                 span = self.theta_td[i] - self.theta_lo[i]
@@ -340,7 +432,10 @@ class ProceduralController:
                 self.swing_s[i] = max(self.swing_s[i], sp)
         g = np.where(FORE, 1, 0)
         remaining = np.maximum(self.theta_td - self.theta, 0.0) / omega
-        tau = remaining + 0.5 * stance_time
+        # land half a stance ahead of the girdle, but never beyond the leg's reach
+        half = np.interp(p.drop + s.vault, self.drops, self.half_sweep.min(axis=1))
+        lead = min(0.5 * stance_time, self.settings.reach_margin * half / max(v, 1e-6))
+        tau = remaining + lead
         kp, kh = arc_advance(keys[g], key_heading[g], v, self.yaw_rate, tau)
         target = kp + rotate_y(self.foot_offset, kh)
         target[:, Y] = 0.0
@@ -417,6 +512,7 @@ class ProceduralController:
             "duty": np.asarray(p.duty),
             "spine": np.asarray(self.spine_smooth),
             "heading_rate": np.asarray(self.yaw_rate),
+            "amplitude": np.append(self.r, self.r_s),
         }
 
     def pose(self, plans: dict[str, np.ndarray]):
@@ -426,7 +522,7 @@ class ProceduralController:
 
 _ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
                "toe", "tail", "look", "contacts", "phase", "speed", "duty", "spine",
-               "heading_rate")
+               "heading_rate", "amplitude")
 
 
 def stack_plans(plans: list[dict]) -> dict[str, np.ndarray]:
@@ -471,21 +567,18 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
     # frame 0 is the starting state; frame k follows k steps of dt
-    plans = [ctl.step(first, 0.0)]
-    plans += [ctl.step(script.command_at((k - 1) * dt), dt) for k in range(1, n)]
+    plans = [ctl.step(first, 0.0, pose=False)]
+    plans += [ctl.step(script.command_at((k - 1) * dt), dt, pose=False) for k in range(1, n)]
     plan = stack_plans(plans)
     local, root, err = ctl.pose(plan)
     return Motion(
         character.skeleton, fps, root, quaternions_from_matrices(local),
         contacts=plan["contacts"], gaits=plan["gait"], foot_joints=character.foot_joints,
         extras={"phase": plan["phase"], "spine": plan["spine"], "duty": plan["duty"],
-                "speed": plan["speed"], "ik_error": err, "heading": plan["heading"]},
+                "speed": plan["speed"], "ik_error": err, "heading": plan["heading"],
+                "cpg_amplitude": plan["amplitude"]},
     )
 
 
-def wrap(a):  # re-exported helper for callers that steer by heading
-    return wrap_angle(a)
-
-
 __all__ = ["ControllerSettings", "ProceduralController", "QuadsimClampWarning", "simulate",
-           "stack_plans", "GRAVITY"]
+           "stack_plans"]

@@ -42,7 +42,7 @@ class Poser:
     legs: tuple[LegGeometry, ...]
 
     @classmethod
-    def for_character(cls, character: Character) -> "Poser":
+    def for_character(cls, character: Character) -> Poser:
         return cls(character, tuple(leg_geometry(character, leg) for leg in character.legs))
 
     def pose(self, plan: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -67,8 +67,8 @@ class Poser:
         T = root.shape[0]
         J = sk.n_joints
         L = np.broadcast_to(np.eye(3), (T, J, 3, 3)).copy()
-        rx = lambda a: matrices_about_axis(0, a)  # noqa: E731
-        ry = lambda a: matrices_about_axis(1, a)  # noqa: E731
+        rx = lambda a: matrices_about_axis(0, a)
+        ry = lambda a: matrices_about_axis(1, a)
 
         spine = ch.spine[1:]
         K = len(spine)

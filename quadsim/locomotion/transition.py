@@ -12,7 +12,7 @@ phase of the stride.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -50,12 +50,12 @@ class GaitParams:
     spine_amplitude: float
 
     @classmethod
-    def of(cls, gait: Gait, speed: float) -> "GaitParams":
+    def of(cls, gait: Gait, speed: float) -> GaitParams:
         return cls(float(gait.duty(speed)), np.asarray(gait.phases, dtype=float),
                    gait.stride_coefficient, gait.speed_range[0], gait.swing_height,
                    gait.drop, 1.0 if gait.spine == "bound" else 0.0, gait.spine_amplitude)
 
-    def blend(self, other: "GaitParams", s: float) -> "GaitParams":
+    def blend(self, other: GaitParams, s: float) -> GaitParams:
         """``self`` moved a fraction ``s`` of the way to ``other``."""
         def lerp(a, b):
             return a + s * (b - a)
@@ -129,10 +129,12 @@ class GaitScheduler:
         s = min(self.elapsed / self.duration, 1.0) ** 2
         return self.source.blend(target, s)
 
-    def update(self, wanted: str, speed: float, dt: float, stride_period: float) -> GaitParams:
+    def update(self, wanted: str, speed: float, dt: float, stride_period: float,
+               duration: float | None = None) -> GaitParams:
         """Advance by ``dt``; start a transition when ``wanted`` differs.
 
-        Returns the parameters to use for this step.
+        A transition lasts ``duration`` seconds if given, else 1.5 strides
+        (between 0.5 and 2 s). Returns the parameters to use for this step.
         """
         if self.source is not None:
             self.elapsed += dt
@@ -144,10 +146,6 @@ class GaitScheduler:
             self.source = start
             self.current = wanted
             self.elapsed = 0.0
-            self.duration = float(np.clip(1.5 * stride_period, 0.5, 2.0))
+            self.duration = (float(duration) if duration is not None
+                             else float(np.clip(1.5 * stride_period, 0.5, 2.0)))
         return self.params(speed)
-
-    def copy_state(self) -> dict:
-        return dict(current=self.current, source=None if self.source is None else replace(
-            self.source), source_name=self.source_name, elapsed=self.elapsed,
-            duration=self.duration)

@@ -306,7 +306,7 @@ def character_from_dict(data: dict, src: str = "<character>") -> Character:
         add(name, parent, off, end)
 
     if data.get("mirror_left_legs", False):
-        for name in list(names):
+        for name in names:
             pre = name[:3]
             if pre in _MIRROR:
                 j = index[name]

@@ -149,7 +149,7 @@ class Motion:
         return self.world_positions()[:, self.skeleton.indices(self.foot_joints)]
 
     # --------------------------------------------------------------- editing
-    def _replace(self, index, **kw) -> "Motion":
+    def _replace(self, index, **kw) -> Motion:
         def pick(a):
             return None if a is None else a[index]
 
@@ -163,19 +163,19 @@ class Motion:
         args.update(kw)
         return Motion(**args)
 
-    def __getitem__(self, index) -> "Motion":
+    def __getitem__(self, index) -> Motion:
         """Frames selected by a slice (or index array), keeping the frame rate."""
         if isinstance(index, (int, np.integer)):
             index = slice(int(index), int(index) + 1 if index != -1 else None)
         return self._replace(index)
 
-    def time_slice(self, start: float, stop: float) -> "Motion":
+    def time_slice(self, start: float, stop: float) -> Motion:
         """Frames with ``start <= t < stop`` (seconds from the first frame)."""
         i0 = int(np.ceil(start * self.fps - 1e-9))
         i1 = int(np.ceil(stop * self.fps - 1e-9))
         return self[max(i0, 0):max(i1, 0)]
 
-    def resample(self, fps: float) -> "Motion":
+    def resample(self, fps: float) -> Motion:
         """The same motion at another frame rate.
 
         Root positions are interpolated linearly and rotations by slerp;
@@ -207,7 +207,7 @@ class Motion:
         )
 
     @staticmethod
-    def concatenate(motions: list["Motion"]) -> "Motion":
+    def concatenate(motions: list[Motion]) -> Motion:
         """Join motions of the same skeleton and frame rate end to end."""
         if not motions:
             raise ValueError("nothing to concatenate")

@@ -130,7 +130,7 @@ class Skeleton:
             out.append(j)
         return [self.names[i] for i in reversed(out)]
 
-    def scaled(self, factor: float) -> "Skeleton":
+    def scaled(self, factor: float) -> Skeleton:
         """The same skeleton uniformly scaled by ``factor``."""
         return Skeleton(self.names, self.parents, self.offsets * factor,
                         {k: v * factor for k, v in self.end_sites.items()})
