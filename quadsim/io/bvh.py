@@ -37,7 +37,6 @@ from __future__ import annotations
 
 import os
 import re
-import secrets
 from dataclasses import dataclass, field
 from decimal import Decimal, InvalidOperation
 from pathlib import Path
@@ -46,7 +45,9 @@ import numpy as np
 
 from quadsim.errors import InputError
 from quadsim.frames import LEGS
+from quadsim.io.atomic import atomic_write
 from quadsim.kinematics.rotations import (
+    euler_from_matrices,
     matrices_about_axis,
     matrices_from_euler,
     quaternions_from_matrices,
@@ -123,7 +124,7 @@ def write_bvh(motion: Motion, path: str | os.PathLike, *, units: str = "m",
     header += f"MOTION\nFrames: {len(motion)}\nFrame Time: {1.0 / motion.fps!r}\n"
 
     T = len(motion)
-    angles = np.degrees(_euler_from_matrices(motion.local_matrices[:, dfs], order))
+    angles = np.degrees(euler_from_matrices(motion.local_matrices[:, dfs], order))
     values = np.concatenate([motion.root_positions * scale,
                              angles.reshape(T, 3 * skel.n_joints)], axis=1)
     path = Path(path)
@@ -185,57 +186,11 @@ def _write_frames(f, values: np.ndarray, p: int) -> None:
 
 
 def _atomic_write(path: Path, header: str, values: np.ndarray, p: int) -> None:
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    except OSError as e:
-        raise InputError(f"{path}: cannot write the file ({e.strerror})") from None
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as f:
-            f.write(header)
-            _write_frames(f, values, p)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException as e:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        if isinstance(e, OSError):
-            raise InputError(f"{path}: cannot write the file ({e.strerror or e})") from None
-        raise
+    def write(f):
+        f.write(header)
+        _write_frames(f, values, p)
 
-
-def _euler_from_matrices(R: np.ndarray, order: str) -> np.ndarray:
-    """Intrinsic Euler angles (radians) that rebuild ``R`` to rounding, even at gimbal lock.
-
-    Same convention as :func:`quadsim.kinematics.rotations.euler_from_matrices`
-    (``R = R_a(t0) @ R_b(t1) @ R_c(t2)`` for ``order = "abc"``), but the last two
-    angles are read from what the first leaves, ``N = R_a(t0).T @ R = R_b(t1) @
-    R_c(t2)``, rather than each from ``R`` on its own. Near gimbal lock the
-    first and last angles are then still consistent with each other, so a
-    matrix with rounding noise (e.g. from a quaternion) is rebuilt to ~1e-15
-    where angle-by-angle formulas can be off by a large angle.
-
-    Parameters
-    ----------
-    R : array-like, shape (..., 3, 3)
-    order : str
-        Three distinct letters from ``XYZ``.
-
-    Returns
-    -------
-    angles : ndarray, shape (..., 3)
-    """
-    a, b, c = (_AXES.index(ch) for ch in order)
-    s = 1.0 if (b - a) % 3 == 1 else -1.0  # parity of the order
-    R = np.asarray(R, dtype=float)
-    t0 = np.arctan2(-s * R[..., b, c], R[..., c, c])  # turns column c into the a-c plane
-    N = np.swapaxes(matrices_about_axis(a, t0), -1, -2) @ R
-    t1 = np.arctan2(s * N[..., a, c], N[..., c, c])
-    t2 = np.arctan2(s * N[..., b, a], N[..., b, b])
-    return np.stack([t0, t1, t2], axis=-1)
+    atomic_write(path, write)
 
 
 # ===================================================================== reading

@@ -35,13 +35,13 @@ from __future__ import annotations
 
 import json
 import os
-import secrets
 import struct
 from pathlib import Path
 
 import numpy as np
 
 from quadsim.errors import InputError
+from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.body_mesh import body_mesh
 from quadsim.skeleton.motion import Motion
 
@@ -143,7 +143,7 @@ def write_glb(motions, path: str | os.PathLike, *, body: bool = True, names=None
     gltf["buffers"] = [{"byteLength": len(blob)}]
     data = _glb(gltf, blob)
     path = Path(path)
-    _atomic_write_bytes(path, data)
+    atomic_write_bytes(path, data)
     return path
 
 
@@ -382,24 +382,3 @@ def _generator() -> str:
         return "quadsim"
 
 
-def _atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then move it into place."""
-    tmp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    except OSError as e:
-        raise InputError(f"{path}: cannot write the file ({e.strerror})") from None
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException as e:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        if isinstance(e, OSError):
-            raise InputError(f"{path}: cannot write the file ({e.strerror or e})") from None
-        raise

@@ -48,7 +48,7 @@ import numpy as np
 
 from quadsim.errors import InputError
 from quadsim.frames import LEGS
-from quadsim.io.gltf import _atomic_write_bytes
+from quadsim.io.atomic import atomic_write_bytes
 from quadsim.skeleton.motion import Motion
 
 __all__ = ["FORMAT_VERSION", "write_csv", "write_npz"]
@@ -118,7 +118,7 @@ def write_npz(motion: Motion, path: str | os.PathLike) -> Path:
     buf = io.BytesIO()
     np.savez_compressed(buf, **npz_arrays(motion))
     path = Path(path)
-    _atomic_write_bytes(path, buf.getvalue())
+    atomic_write_bytes(path, buf.getvalue())
     return path
 
 
@@ -168,5 +168,5 @@ def write_csv(motion: Motion, path: str | os.PathLike) -> Path:
     np.savetxt(buf, table + 0.0, fmt=fmt, delimiter=",",
                header=",".join(csv_header(motion)), comments="")
     path = Path(path)
-    _atomic_write_bytes(path, buf.getvalue().encode("utf-8"))
+    atomic_write_bytes(path, buf.getvalue().encode("utf-8"))
     return path

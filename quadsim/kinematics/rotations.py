@@ -196,20 +196,17 @@ def euler_from_matrices(R: np.ndarray, order: str) -> np.ndarray:
     # parity: +1 for cyclic orders (XYZ, YZX, ZXY), -1 otherwise
     sign = 1.0 if (b - a) % 3 == 1 else -1.0
     R = np.asarray(R, dtype=float)
-    # beta from atan2(sin, cos) rather than arcsin: arcsin loses half the digits
-    # near +-90 degrees, and a lock test on sin(beta) then fires up to ~1e-6 rad
-    # away from the lock, leaving round-trip errors of ~1e-7.
-    cb = np.hypot(R[..., a, a], R[..., a, b])
-    beta = np.arctan2(sign * R[..., a, c], cb)
-    alpha = np.arctan2(-sign * R[..., b, c], R[..., c, c])
-    gamma = np.arctan2(-sign * R[..., a, b], R[..., a, a])
-    # gimbal lock: cos(beta) ~ 0, put everything into alpha
-    lock = cb < 4.0 * np.finfo(float).eps
-    if np.any(lock):
-        alpha_l = np.arctan2(sign * R[..., c, b], R[..., b, b])
-        alpha = np.where(lock, alpha_l, alpha)
-        gamma = np.where(lock, 0.0, gamma)
-    return np.stack([alpha, beta, gamma], axis=-1)
+    # The first angle turns column c into the a-c plane; the other two are
+    # read from what it leaves, N = R_a(t0).T @ R = R_b(t1) @ R_c(t2), rather
+    # than each from R on its own. Near gimbal lock the first and last angles
+    # then stay consistent with each other, so a matrix with rounding noise
+    # (say from a quaternion) is rebuilt to ~1e-15, where angle-by-angle
+    # formulas can be off by a large angle.
+    t0 = np.arctan2(-sign * R[..., b, c], R[..., c, c])
+    N = np.swapaxes(matrices_about_axis(a, t0), -1, -2) @ R
+    t1 = np.arctan2(sign * N[..., a, c], N[..., c, c])
+    t2 = np.arctan2(sign * N[..., b, a], N[..., b, b])
+    return np.stack([t0, t1, t2], axis=-1)
 
 
 def matrices_from_euler(angles: np.ndarray, order: str) -> np.ndarray:
