@@ -288,3 +288,40 @@ def test_speed_zero_stands_on_four_feet_and_sets_off_again(character):
     assert speed == pytest.approx(2.5, rel=0.05)
     slide, pen = slide_and_penetration(m)
     assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT
+
+
+def _body_heading(m, ch):
+    """Heading of the pelvis -> first spine joint, from joint positions (rad)."""
+    P = m.world_positions()
+    d = P[:, ch.spine[1]] - P[:, ch.spine[0]]
+    return np.unwrap(np.arctan2(d[:, 0], d[:, 2]))
+
+
+@pytest.mark.parametrize("character", ["leopard", "horse"])
+def test_steering_towards_a_heading_settles_on_it(character):
+    ch = load_character(character)
+    target = math.radians(-70.0)
+    s = Script((0.0, 2.0), (Command(speed=2.0), Command(speed=2.0, heading=target)))
+    m = simulate(ch, s, 10.0, FPS)
+    heading = _body_heading(m.time_slice(8.0, 10.0), ch)
+    assert np.mean(heading) == pytest.approx(target, abs=math.radians(4.0))
+    slide, pen = slide_and_penetration(m)
+    assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT
+
+
+@pytest.mark.parametrize("character", CHARACTERS)
+def test_turning_during_a_gait_transition(character):
+    """A turn held through walk -> trot -> canter: the body keeps turning at the
+    commanded rate and planted feet stay planted."""
+    ch = load_character(character)
+    table = gait_table(ch)
+    rate = math.radians(30.0)
+    s = Script((0.0, 3.0, 5.0), (Command(speed=table["walk"].preferred_speed, turn_rate=rate),
+                                 Command(speed=table["trot"].preferred_speed, turn_rate=rate),
+                                 Command(speed=table["canter"].preferred_speed, turn_rate=rate)))
+    m = simulate(ch, s, 8.0, FPS)
+    part = m.time_slice(2.5, 8.0)
+    heading = _body_heading(part, ch)
+    assert np.polyfit(part.times, heading, 1)[0] == pytest.approx(rate, rel=0.1)
+    slide, pen = slide_and_penetration(m)
+    assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT
