@@ -1,0 +1,38 @@
+"""The data-driven horse mode: a clip database expanded to any speed.
+
+Modules: :mod:`.database` (looped BVH clips and their manifest; the
+:func:`~.database.cut_cycles` builder), :mod:`.legs` (two-bone IK that keeps
+the lower leg; holding stance feet), :mod:`.speed` (Hoyt's contact-time law,
+speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits).
+"""
+
+from .database import (
+                       Clip,
+                       ClipDatabase,
+                       Cycle,
+                       clip_folder,
+                       cut_cycles,
+                       load_database,
+                       load_default_database,
+)
+from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
+from .timewarp import blend_frames, leg_times, synchronous_transition, transition_motion
+
+__all__ = [
+                       "HOYT",
+                       "SPEED_UNIT",
+                       "Clip",
+                       "ClipDatabase",
+                       "Cycle",
+                       "blend_frames",
+                       "clip_folder",
+                       "contact_time",
+                       "cut_cycles",
+                       "expand",
+                       "leg_times",
+                       "load_database",
+                       "load_default_database",
+                       "step_length",
+                       "synchronous_transition",
+                       "transition_motion",
+]

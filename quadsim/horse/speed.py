@@ -1,0 +1,189 @@
+"""Speed expansion of a gait clip with Hoyt's contact-time law.
+
+The seed's Table 1 gives, per gait, ``Tc = a v^b`` (contact time of a foot,
+seconds) and the step length ``D = v Tc`` -- how far the body travels while a
+foot is on the ground.
+
+The speed unit of Table 1
+-------------------------
+The table does not state it. With the walk's constants (a = 1.688057,
+b = -0.71476) a horse walking at 1.4-1.8 m/s has stance times of
+
+========  ============  ============  ============
+unit      v = 1.4 m/s   v = 1.8 m/s   (real: 0.6-0.8 s)
+========  ============  ============  ============
+m/s       1.33 s        1.11 s
+mph       0.75 s        0.62 s
+km/h      0.53 s        0.44 s
+========  ============  ============  ============
+
+and only **miles per hour** fits; it also gives plausible trot (0.39 -> 0.19 s
+over 2.5-6.5 m/s) and canter (0.22 -> 0.13 s over 4.4-7.5 m/s) stance times,
+and the seed states its turning speeds in mph (Muybridge measured in feet and
+inches). So ``v`` is in mph here (:data:`SPEED_UNIT`, :func:`contact_time`
+converts from m/s). Two rows do not fit real horses in any unit: the gallop
+gives 0.32 -> 0.24 s over 9-17 m/s in mph (real racehorses: 0.13 -> 0.08 s;
+m/s and km/h are no closer), and the amble 0.73 -> 0.61 s over 2.7-3.8 m/s,
+whose steps ``D = v Tc`` of 2.0-2.3 m a 1.3 m leg cannot make.
+
+Two anchors
+-----------
+``anchor="law"`` makes the expanded clip's contact time ``a v^b`` itself.
+``anchor="clip"`` applies the law relative to the clip,
+``Tc' = Tc0 (v'/v0)^b`` and ``D'/D0 = (v'/v0)^(1+b)`` -- the exponent the seed
+fitted, free of the speed unit and of ``a`` -- which is the same thing when the
+clip obeys the law (the seed's clips were the data the law was fitted to) and
+the usable choice for gaits whose absolute law the leg cannot reach (above).
+
+Method (the seed's equation 2, then time warping)
+-------------------------------------------------
+Each foot is moved about its hip/shoulder in the sagittal (forward-up) plane,
+``P'f = (Pf - Sf) r + Sf`` with ``r = D'/D0``, and its height above the ground
+scaled by ``r`` (the seed's ``G`` is the offset that keeps a stance foot on
+the ground); an analytic two-bone IK puts the foot there, keeping the joints
+below the pair as they were. The root's forward travel is scaled by ``r`` too,
+so a planted foot stays planted. The cycle is then warped uniformly in time by
+``k = Tc'/Tc0`` (resampled by slerp to a whole number of frames, ``k``
+rounded to it and ``r = v' k / v0`` taken from the rounded ``k``), which makes
+the contact time ``Tc'`` (within half a frame per cycle) and the speed
+exactly ``r v0 / k = v'``. Planted feet are finally held still on the ground
+by the same IK through their measured contacts.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from ..analysis.metrics import foot_contacts, stance_intervals
+from ..errors import InputError
+from ..skeleton.character import Character
+from ..skeleton.motion import Motion
+from .database import Clip, cycle_stance, label_touchdowns, looped, pin_cycle, sample_motion
+from .legs import place_feet
+
+#: Table 1 of the seed: ``Tc = a v^b``, v in :data:`SPEED_UNIT`, Tc in seconds.
+HOYT = {
+    "walk": (1.688057, -0.71476),
+    "amble": (1.826353, -0.51021),
+    "trot": (1.407662, -0.74782),
+    "rack": (2.386013, -0.90153),
+    "canter": (2.005463, -0.96045),
+    "gallop": (1.14589, -0.42978),
+}
+SPEED_UNIT = "mph"
+MPH = 0.44704  # m/s per mile per hour
+FORWARD = 2
+UP = 1
+
+
+def contact_time(gait: str, speed) -> np.ndarray:
+    """Hoyt's contact time ``a v^b`` (s) of a gait at ``speed`` (m/s, converted to mph)."""
+    if gait not in HOYT:
+        raise InputError(f"no contact-time law for gait {gait!r}; known: {', '.join(HOYT)}")
+    a, b = HOYT[gait]
+    return a * (np.asarray(speed, dtype=float) / MPH) ** b
+
+
+def step_length(gait: str, speed) -> np.ndarray:
+    """``D = v Tc`` (m) at ``speed`` (m/s)."""
+    return np.asarray(speed, dtype=float) * contact_time(gait, speed)
+
+
+def measure_contact_time(motion: Motion, skip: int = 0) -> np.ndarray:
+    """Median measured stance time of each foot (s), shape (4,), from frame ``skip`` on."""
+    feet = motion.foot_positions()[skip:]
+    c = foot_contacts(feet, motion.fps)
+    iv = stance_intervals(c, motion.fps, feet)
+    out = np.full(4, np.nan)
+    for i, s in enumerate(iv):
+        d = s[:, 1] - s[:, 0]
+        d = d[np.isfinite(d)]
+        if len(d):
+            out[i] = np.median(d)
+    return out
+
+
+def clip_contact_time(clip: Clip) -> float:
+    """Mean measured stance time of a looped clip's feet (s)."""
+    m = looped(clip.motion, 3, clip.speed)
+    return float(np.nanmean(measure_contact_time(m)))
+
+
+def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law",
+           ground: float = 0.0) -> Clip:
+    """The clip expanded to a new speed (m/s), one looped cycle.
+
+    Parameters
+    ----------
+    clip : Clip
+        A looped gait clip (not a leap).
+    character : Character
+    speed : float
+        The new speed (m/s), > 0.
+    anchor : {"law", "clip"}
+        Make the contact time ``a v^b`` (``"law"``) or ``Tc0 (v/v0)^b``
+        (``"clip"``); see the module notes.
+
+    Returns
+    -------
+    Clip
+        Same gait; ``speed`` the new one; ``frames`` the new cycle length at
+        the clip's frame rate; touchdown frames scaled.
+    """
+    if clip.gait not in HOYT:
+        raise InputError(f"clip {clip.name!r}: gait {clip.gait!r} has no speed law")
+    if not speed > 0:
+        raise InputError(f"speed must be > 0 m/s, got {speed!r}")
+    if anchor not in ("law", "clip"):
+        raise InputError(f"anchor must be 'law' or 'clip', got {anchor!r}")
+    b = HOYT[clip.gait][1]
+    tc0 = clip_contact_time(clip)
+    if anchor == "law":
+        tc1 = float(contact_time(clip.gait, speed))
+    else:
+        tc1 = tc0 * (speed / clip.speed) ** b
+    m = clip.motion
+    n = clip.frames
+    # the cycle must hold a whole number of frames: round the warp, then take
+    # the step scale that gives exactly the wanted speed (Tc' off by < 1/(2 n'))
+    n1 = max(round(n * tc1 / tc0), 4)
+    k = n1 / n
+    r = speed * k / clip.speed
+    # spatial: feet about the hip/shoulder (equation 2), root travel scaled
+    Wp = m.world_positions()
+    feet = Wp[:, [leg.foot for leg in character.legs]]
+    S = Wp[:, [leg.chain[leg.ik_start] for leg in character.legs]]
+    root = np.array(m.root_positions)
+    root[:, FORWARD] = root[:, FORWARD] * r
+    shift = np.zeros_like(Wp[:, :1])
+    shift[:, 0, FORWARD] = root[:, FORWARD] - m.root_positions[:, FORWARD]
+    tgt = feet + shift
+    Sf = S[..., FORWARD] + shift[..., FORWARD]
+    tgt[..., FORWARD] = (feet[..., FORWARD] + shift[..., FORWARD] - Sf) * r + Sf
+    tgt[..., UP] = ground + (feet[..., UP] - ground) * r
+    moved = Motion(m.skeleton, m.fps, root, m.rotations, foot_joints=m.foot_joints)
+    rot = place_feet(character, moved, tgt)
+    scaled = Motion(m.skeleton, m.fps, root, rot, foot_joints=m.foot_joints)
+    # temporal: warp uniformly by k, resample the loop to a whole number of frames
+    ext_root = np.concatenate([scaled.root_positions,
+                               scaled.root_positions[:1] + [0.0, 0.0, r * clip.speed * n / m.fps]])
+    ext = Motion(m.skeleton, m.fps, ext_root,
+                 np.concatenate([scaled.rotations, scaled.rotations[:1]]),
+                 foot_joints=m.foot_joints)
+    src = np.arange(n1) * (n / n1)
+    root1, rot1 = sample_motion(ext, src)
+    out = Motion(m.skeleton, m.fps, root1, rot1, foot_joints=m.foot_joints)
+    # the clip's contacts, warped: hold those feet still on the ground
+    stance = [st * (n1 / n) for st in cycle_stance(m, clip.speed)]
+    out = pin_cycle(character, out, speed, stance)
+    td = label_touchdowns(out, speed)
+    return replace(clip, name=f"{clip.name}@{speed:g}", speed=float(speed), frames=n1,
+                   touchdown=td, motion=out,
+                   source=f"{clip.name} expanded to {speed:g} m/s (anchor {anchor}, "
+                          f"r = {r:.3f}, k = {k:.3f})")
+
+
+__all__ = ["HOYT", "MPH", "SPEED_UNIT", "clip_contact_time", "contact_time", "expand",
+           "measure_contact_time", "step_length"]

@@ -1,0 +1,163 @@
+"""The horse clip database: the shipped clips load and loop; bad manifests are named."""
+
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
+from quadsim.errors import InputError
+from quadsim.horse.database import (
+    CLIP_GAITS,
+    cut_cycles,
+    load_database,
+    load_default_database,
+    looped,
+    pose_distance_deg,
+)
+from quadsim.skeleton.character import load_character
+from quadsim.skeleton.motion import Motion
+
+
+@pytest.fixture(scope="module")
+def horse():
+    return load_character("horse")
+
+
+@pytest.fixture(scope="module")
+def db(horse):
+    return load_default_database(horse)
+
+
+def test_default_database_has_the_seed_gaits(db):
+    gait_clips = [c for c in db.clips.values() if c.gait != "leap"]
+    assert len(gait_clips) == 11
+    assert set(db.gaits) == set(CLIP_GAITS)
+    for c in db.clips.values():
+        assert c.source
+        assert len(c.motion) == c.frames
+        if c.gait in ("canter", "gallop", "leap"):
+            assert c.lead in ("left", "right")
+    leap = db.by_gait("leap")[0]
+    assert leap.start_gait == "gallop" and leap.height > 0.3
+    assert db.nearest("walk", 1.0).speed == db.by_gait("walk")[0].speed
+
+
+def test_each_clip_loops_and_its_touchdowns_are_the_measured_ones(db):
+    for c in db.clips.values():
+        if c.gait == "leap":
+            continue
+        q = c.motion.rotations
+        steps = pose_distance_deg(q[1:], q[:-1])
+        wrap = float(pose_distance_deg(q[-1], q[0]))
+        assert wrap <= 1.5 * steps.max() + 1.0, c.name
+        m = looped(c.motion, 4, c.speed)
+        feet = m.foot_positions()
+        con = foot_contacts(feet, m.fps)
+        iv = stance_intervals(con, m.fps, feet)
+        for i in range(4):
+            on = iv[i][np.isfinite(iv[i][:, 0]), 0] * m.fps
+            inner = on[(on > c.frames) & (on < 3 * c.frames)]
+            assert len(inner) == 2, (c.name, i)
+            d = (inner[0] - c.touchdown[i]) % c.frames
+            assert min(d, c.frames - d) <= 1.5, (c.name, i, inner, c.touchdown)
+        # looped at the clip's speed, planted feet stay put
+        _, slide = foot_slide(feet[c.frames:], con[c.frames:])
+        assert slide < 0.002, c.name
+
+
+def test_leap_clears_its_height(db):
+    leap = db.by_gait("leap")[0]
+    feet = leap.motion.foot_positions()
+    assert feet[..., 1].min(axis=1).max() >= leap.height - 1e-3
+
+
+# ------------------------------------------------------------ bad manifests
+CLIP = "walk_1.3"
+GOOD = """
+[clips."walk_1.3"]
+file = "walk_1.3.bvh"
+gait = "walk"
+speed = 1.3
+frames = 20
+touchdown = { LF = 5, RF = 15, LH = 0, RH = 10 }
+"""
+
+
+def _folder(tmp_path, db, text, bvh_text=None):
+    src = Path(db.folder) / f"{CLIP}.bvh"
+    if bvh_text is None:
+        shutil.copy(src, tmp_path / f"{CLIP}.bvh")
+    else:
+        (tmp_path / f"{CLIP}.bvh").write_text(bvh_text)
+    (tmp_path / "manifest.toml").write_text(text)
+    return tmp_path
+
+
+def test_a_good_manifest_loads(tmp_path, db, horse):
+    d = load_database(_folder(tmp_path, db, GOOD), horse)
+    assert d.clips[CLIP].frames == 20
+
+
+@pytest.mark.parametrize("old,new,match", [
+    ("frames = 20", "frames = 2000", "out of range"),
+    ("LF = 5,", "LF = 25,", r"touchdown\.LF.*out of range"),
+    ("LF = 5, ", "", "missing foot LF"),
+    ('gait = "walk"', 'gait = "foxtrot"', "not a known gait"),
+    ('gait = "walk"', 'gait = "canter"', "lead"),
+    ('file = "walk_1.3.bvh"', 'file = "nope.bvh"', "not found"),
+    ("speed = 1.3", "speed = -1", "speed"),
+    ("frames = 20\n", "", "missing field `frames`"),
+])
+def test_bad_manifest_names_the_clip(tmp_path, db, horse, old, new, match):
+    assert old in GOOD
+    folder = _folder(tmp_path, db, GOOD.replace(old, new, 1))
+    with pytest.raises(InputError, match=match) as e:
+        load_database(folder, horse)
+    assert CLIP in str(e.value)
+
+
+def test_unusable_bvh_names_the_clip(tmp_path, db, horse):
+    text = (Path(db.folder) / f"{CLIP}.bvh").read_text()
+    with pytest.raises(InputError, match="not a usable BVH") as e:
+        load_database(_folder(tmp_path, db, GOOD, text[: len(text) // 3] + "\n garbage"), horse)
+    assert CLIP in str(e.value)
+    renamed = text.replace("LF_carpus", "LF_knee")
+    with pytest.raises(InputError, match="do not match the character's legs.*LF_carpus") as e:
+        load_database(_folder(tmp_path, db, GOOD, renamed), horse)
+    assert CLIP in str(e.value)
+
+
+# ------------------------------------------------------------ the builder
+def test_cut_cycles_finds_a_looped_cycle_in_a_long_take(db):
+    c = db.by_gait("trot")[0]
+    take = looped(c.motion, 5, c.speed)
+    cyc = cut_cycles(take)[0]
+    assert abs(cyc.frames - c.frames) <= 1
+    assert abs(cyc.speed - c.speed) < 0.02 * c.speed
+    assert cyc.loop_error_deg < 2.0
+
+
+def test_cut_cycles_rejects_a_take_that_cannot_loop(db):
+    c = db.by_gait("trot")[0]
+    take = looped(c.motion, 5, c.speed)
+    # the head keeps turning: no cycle comes back to its first pose
+    rot = np.array(take.rotations)
+    head = take.skeleton.index("head")
+    ang = np.linspace(0.0, 3.0, len(take))
+    rot[:, head] = np.stack([np.cos(ang / 2), np.zeros_like(ang), np.sin(ang / 2),
+                             np.zeros_like(ang)], axis=-1)
+    bad = Motion(take.skeleton, take.fps, take.root_positions, rot,
+                 foot_joints=take.foot_joints)
+    with pytest.raises(InputError, match="my take: cannot loop"):
+        cut_cycles(bad, where="my take")
+
+
+def test_cut_cycles_needs_touchdowns(db):
+    c = db.by_gait("trot")[0]
+    still = Motion(c.motion.skeleton, c.motion.fps,
+                   np.tile(c.motion.root_positions[:1], (60, 1)) + [0, 1.0, 0],
+                   np.tile(c.motion.rotations[:1], (60, 1, 1)), foot_joints=c.motion.foot_joints)
+    with pytest.raises(InputError, match="fewer than two touchdowns"):
+        cut_cycles(still)

@@ -1,0 +1,80 @@
+"""Speed expansion: Hoyt's law on the produced motion, measured from joint positions."""
+
+import numpy as np
+import pytest
+
+from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
+from quadsim.errors import InputError
+from quadsim.horse.database import load_default_database, looped
+from quadsim.horse.speed import HOYT, MPH, clip_contact_time, contact_time, expand
+from quadsim.skeleton.character import load_character
+
+#: three speeds (m/s) across each gait's range; the gallop stays within the
+#: reach of its single clip (11 m/s) -- see the speed module's notes
+SPEEDS = {
+    "walk": (1.4, 1.6, 1.8),
+    "amble": (2.7, 3.2, 3.8),
+    "trot": (2.5, 4.5, 6.5),
+    "rack": (2.9, 4.2, 5.5),
+    "canter": (4.4, 6.0, 7.5),
+    "gallop": (9.0, 10.5, 12.0),
+}
+
+
+@pytest.fixture(scope="module")
+def horse():
+    return load_character("horse")
+
+
+@pytest.fixture(scope="module")
+def db(horse):
+    return load_default_database(horse)
+
+
+def test_table_1_speed_unit_is_mph():
+    # a walking horse stands on each foot 0.6-0.8 s: only mph gives that
+    for v in (1.4, 1.8):
+        assert 0.6 <= contact_time("walk", v) <= 0.8
+        a, b = HOYT["walk"]
+        assert a * v ** b > 1.0            # v taken in m/s: far too long
+        assert a * (v * 3.6) ** b < 0.55   # km/h: too short
+    assert np.isclose(contact_time("trot", 4 * MPH), 1.407662 * 4 ** -0.74782)
+
+
+@pytest.mark.parametrize("gait", list(SPEEDS))
+def test_contact_time_and_step_follow_the_law(horse, db, gait):
+    b = HOYT[gait][1]
+    for v in SPEEDS[gait]:
+        clip = db.nearest(gait, v)
+        tc_want = clip_contact_time(clip) * (v / clip.speed) ** b
+        e = expand(clip, horse, v, anchor="clip")
+        assert e.speed == v and e.gait == gait
+        m = looped(e.motion, 6, e.speed)
+        feet = m.foot_positions()
+        con = foot_contacts(feet, m.fps)
+        iv = stance_intervals(con, m.fps, feet)
+        root = m.root_positions
+        for i in range(4):
+            s = iv[i][np.isfinite(iv[i]).all(axis=1)][1:-1]  # whole contacts inside
+            assert len(s) >= 2, (gait, v, i)
+            tc = s[:, 1] - s[:, 0]
+            assert np.all(np.abs(tc / tc_want - 1) < 0.10), (gait, v, i, tc, tc_want)
+            # step length: body travel while the foot is down, vs D = v Tc
+            z = np.interp(s * m.fps, np.arange(len(m)), root[:, 2])
+            d = z[:, 1] - z[:, 0]
+            assert np.all(np.abs(d / (v * tc_want) - 1) < 0.10), (gait, v, i, d)
+        _, slide = foot_slide(feet, con)
+        assert slide < 0.005, (gait, v, slide)
+        # the footfall order is the clip's
+        order = np.argsort(e.touchdown - e.touchdown[2], kind="stable")
+        assert list(order) == list(np.argsort(clip.touchdown - clip.touchdown[2], kind="stable"))
+
+
+def test_expand_rejects_bad_input(horse, db):
+    clip = db.nearest("walk", 1.5)
+    with pytest.raises(InputError, match="anchor"):
+        expand(clip, horse, 1.5, anchor="nope")
+    with pytest.raises(InputError, match="speed"):
+        expand(clip, horse, 0.0)
+    with pytest.raises(InputError, match="no speed law"):
+        expand(db.by_gait("leap")[0], horse, 11.0)

@@ -1,0 +1,149 @@
+"""Bake the default horse clip database from the procedural horse.
+
+Each gait is simulated by the procedural controller
+(:func:`quadsim.locomotion.controller.simulate`) at a constant command for
+some seconds; :func:`quadsim.horse.database.cut_cycles` then cuts one steady,
+looped cycle out of the take by its measured foot contacts and labels the
+touchdowns. Eleven gait clips at speeds spread over each gait's range (the
+seed's figure 4 also has eleven), plus a leap made from the gallop clip: one
+stride whose suspension is stretched into a longer flight, the root carried
+on a ballistic arc, the legs' poses slerped through the stretched suspension.
+
+Usage::
+
+    python tools/bake_horse_clips.py [--out characters/horse/clips]
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from quadsim.analysis.metrics import foot_contacts
+from quadsim.horse.database import cut_cycles, looped, sample_motion
+from quadsim.io.bvh import write_bvh
+from quadsim.locomotion.commands import Command
+from quadsim.locomotion.controller import simulate
+from quadsim.skeleton.character import load_character
+from quadsim.skeleton.motion import Motion
+
+FPS = 60.0
+TAKE_SECONDS = 8.0
+G = 9.81
+#: (gait in the procedural engine, clip gait, speed m/s)
+CLIPS = [
+    ("walk", "walk", 1.3), ("walk", "walk", 1.7),
+    ("amble", "amble", 2.9), ("amble", "amble", 3.5),
+    ("trot", "trot", 3.0), ("trot", "trot", 5.0),
+    ("rack", "rack", 3.5), ("rack", "rack", 5.0),
+    ("canter", "canter", 5.0), ("canter", "canter", 7.0),
+    ("transverse_gallop", "gallop", 11.0),
+]
+#: Flight time added to the gallop's suspension to make the leap (s).
+LEAP_FLIGHT = 0.45
+
+
+def _leap(gallop: Motion, speed: float, td: np.ndarray):
+    """A leap: the gallop cycle with its suspension stretched into a long flight."""
+    n = len(gallop)
+    fps = gallop.fps
+    three = looped(gallop, 3, speed)
+    c = foot_contacts(three.foot_positions(), fps)[n:2 * n]
+    air = ~c.any(axis=1)
+    idx = np.nonzero(air)[0]
+    if len(idx) == 0:
+        raise RuntimeError("the gallop clip has no suspension to stretch")
+    # the longest run of all-feet-off frames
+    runs = np.split(idx, np.nonzero(np.diff(idx) > 1)[0] + 1)
+    run = max(runs, key=len)
+    s0, s1 = int(run[0]), int(run[-1])
+    k = round(LEAP_FLIGHT * fps)
+    # frames: gallop [0, s0], stretched suspension s0 -> s1 over (s1 - s0) + k steps,
+    # gallop (s1, n)
+    sus = np.linspace(s0, s1, s1 - s0 + k + 1)
+    src = np.concatenate([np.arange(0, s0), sus, np.arange(s1 + 1, n)])
+    root, rot = sample_motion(gallop, src)
+    m = len(src)
+    t = np.arange(m) / fps
+    # horizontal: constant speed; vertical: clip's own bob plus a ballistic arc
+    # over the stretched suspension (zero at its ends)
+    root[:, 2] = t * speed
+    tf = (len(sus) - 1) / fps
+    a0 = s0
+    tau = (np.arange(m) - a0) / fps
+    arc = np.where((tau >= 0) & (tau <= tf), 0.5 * G * tau * (tf - tau), 0.0)
+    root[:, 1] += arc
+    shift = np.zeros(4, dtype=int)
+    shift[:] = np.where(td > s1, k, 0)
+    motion = Motion(gallop.skeleton, fps, root, rot, foot_joints=gallop.foot_joints)
+    feet = motion.foot_positions()
+    on_air = (tau >= 0) & (tau <= tf)
+    # the height the leap clears: the top of the lowest foot's path in the flight
+    clearance = float(feet[on_air, :, 1].min(axis=1).max())
+    return motion, (td + shift) % m, G * tf * tf / 8.0, clearance, tf
+
+
+def bake(out: Path) -> list[str]:
+    horse = load_character("horse")
+    out.mkdir(parents=True, exist_ok=True)
+    lines = [
+        '# The default horse clip database (see quadsim.horse.database).',
+        '# Made by tools/bake_horse_clips.py; regenerate with',
+        '#   python tools/bake_horse_clips.py',
+        'description = "Horse gait clips baked from the procedural horse, one looped cycle each."',
+        '',
+    ]
+    log = []
+    gallop = None
+    for proc, gait, v in CLIPS:
+        take = simulate(horse, Command(speed=v, gait=proc), TAKE_SECONDS, FPS)
+        cyc = cut_cycles(take, character=horse, where=f"{gait} {v} m/s take")[0]
+        name = f"{gait}_{v:.1f}"
+        write_bvh(cyc.motion, out / f"{name}.bvh", precision=6)
+        td = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in cyc.touchdown)))
+        lines += [f'[clips."{name}"]', f'file = "{name}.bvh"', f'gait = "{gait}"',
+                  f"speed = {cyc.speed:.4f}", f"frames = {cyc.frames}",
+                  "touchdown = { " + ", ".join(f"{k} = {x}" for k, x in td.items()) + " }"]
+        if gait in ("canter", "gallop"):
+            lines.append(f'lead = "{cyc.lead}"')
+        lines += [(f'source = "baked: procedural horse (quadsim simulate, gait {proc}, '
+                  f'{v} m/s, {TAKE_SECONDS:g} s at {FPS:g} fps), one steady cycle cut at '
+                  f'{cyc.start_time:.3f} s by cut_cycles (loop error {cyc.loop_error_deg:.2f} deg '
+                  f'spread over the cycle, stance feet pinned by IK)"'),
+                  ""]
+        log.append(f"{name}: {cyc.frames} frames, {cyc.speed:.3f} m/s, td {td}, "
+                   f"loop {cyc.loop_error_deg:.2f} deg")
+        if gait == "gallop":
+            gallop = (cyc, name)
+    cyc, gname = gallop
+    motion, td, rise, clearance, tf = _leap(cyc.motion, cyc.speed, cyc.touchdown)
+    write_bvh(motion, out / "leap.bvh", precision=6)
+    tdd = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in td)))
+    lines += ['[clips.leap]', 'file = "leap.bvh"', 'gait = "leap"', 'start_gait = "gallop"',
+              f"speed = {cyc.speed:.4f}", f"frames = {len(motion)}",
+              "touchdown = { " + ", ".join(f"{k} = {x}" for k, x in tdd.items()) + " }",
+              f'lead = "{cyc.lead}"', f"height = {clearance:.3f}",
+              (f'source = "keyed from clip {gname}: its suspension stretched by '
+              f'{LEAP_FLIGHT:g} s into a {tf:.3f} s flight (leg poses slerped through the '
+              f'suspension), root on a ballistic arc (g = {G}, rise {rise:.3f} m) at '
+              f'constant speed; height = highest point of the lowest foot in the flight"'), ""]
+    log.append(f"leap: {len(motion)} frames, flight {tf:.3f} s, rise {rise:.3f} m, "
+               f"clearance {clearance:.3f} m, td {tdd}")
+    (out / "manifest.toml").write_text("\n".join(lines), encoding="utf-8")
+    return log
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default=str(Path(__file__).resolve().parents[1]
+                                        / "characters" / "horse" / "clips"))
+    a = p.parse_args(argv)
+    for line in bake(Path(a.out)):
+        print(line)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
