@@ -11,6 +11,7 @@
     quadsim preview CONFIG|CHARACTER [--size WxH] [--camera follow|side|top]
     quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
                    [--camera follow|side|top] [--fps N]
+    quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
 with a one-paragraph message on stderr that starts with ``quadsim: error:``.
@@ -111,8 +112,13 @@ def cmd_run(args) -> int:
     # Warnings (a command clamped to what the character can do) as one line each.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        motion = simulate(character, config.commands, config.duration, config.fps,
-                          seed=config.seed)
+        if config.mode == "data":
+            from quadsim.horse.controller import simulate as simulate_data
+
+            motion = simulate_data(character, config.commands, config.duration, config.fps)
+        else:
+            motion = simulate(character, config.commands, config.duration, config.fps,
+                              seed=config.seed)
     for w in caught:
         print(f"{PROG}: warning: {w.message}", file=sys.stderr)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -228,8 +234,14 @@ def _motion_source(source: str, seconds: float | None, units: str = "m"):
     config = with_overrides(load_config(path), duration=seconds)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        motion = simulate(config.load_character(), config.commands, config.duration,
-                          config.fps, seed=config.seed)
+        if config.mode == "data":
+            from quadsim.horse.controller import simulate as simulate_data
+
+            motion = simulate_data(config.load_character(), config.commands,
+                                   config.duration, config.fps)
+        else:
+            motion = simulate(config.load_character(), config.commands, config.duration,
+                              config.fps, seed=config.seed)
     for w in caught:
         print(f"{PROG}: warning: {w.message}", file=sys.stderr)
     return motion
@@ -335,6 +347,22 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    # the suite lives in the source checkout's benchmarks/, beside the package
+    try:
+        from benchmarks.suite import run_from_args
+    except ImportError:
+        root = Path(__file__).resolve().parents[1]
+        if not (root / "benchmarks" / "suite.py").is_file():
+            raise InputError("the benchmark suite is not installed: run `quadsim bench` "
+                             "from a source checkout of quadsim") from None
+        sys.path.insert(0, str(root))
+        from benchmarks.suite import run_from_args
+    if args.max_n < 1:
+        raise InputError(f"`--max-n` = {args.max_n}: give at least 1 character")
+    return run_from_args(args)
+
+
 # ------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Kinematic quadruped locomotion: generate, check and "
@@ -423,6 +451,19 @@ def build_parser() -> argparse.ArgumentParser:
                     help="length unit of a BVH file (default m)")
     rd.add_argument("--quiet", action="store_true", help="no progress bar")
     rd.set_defaults(func=cmd_render)
+
+    b = sub.add_parser("bench", help="measure step rate, offline generation, many "
+                       "characters and export on this machine",
+                       description="Run the benchmark suite (the same as `python -m "
+                       "benchmarks`): print medians over repeats and the machine's details, "
+                       "and write benchmarks/results/<machine>.json.")
+    b.add_argument("--quick", action="store_true", help="a short, rough smoke run")
+    b.add_argument("--max-n", type=int, default=1000, metavar="N",
+                   help="largest number of characters stepped together (1000)")
+    b.add_argument("--characters", metavar="A,B",
+                   help="characters to measure, comma-separated (default all four)")
+    b.add_argument("--out", metavar="FILE.json", help="result file")
+    b.set_defaults(func=cmd_bench)
     return p
 
 

@@ -8,7 +8,8 @@ frame rate, and what it is asked to do over time. Example::
     duration = 20.0            # s, 0 < duration <= 3600
     fps = 60                   # frames per second, 1 <= fps <= 1000
     seed = 0                   # optional, default 0
-    mode = "procedural"        # optional, the only mode so far
+    mode = "procedural"        # optional: "procedural", or "data" (a character with
+                               # a clip database, i.e. the horse)
     units = "m"                # optional, length unit of the output file: "m" or "cm"
 
     [[command]]
@@ -67,8 +68,8 @@ MAX_TURN_RATE_DEG_S = 720.0
 MAX_HEADING_DEG = 360.0
 #: Top speed allowed, as a multiple of the fastest gait's top speed.
 SPEED_MARGIN = 1.5
-#: Generation modes (the data-driven horse mode is planned).
-MODES = ("procedural",)
+#: Generation modes: ``"data"`` plays a clip database (characters/<id>/clips).
+MODES = ("procedural", "data")
 #: Length units of output files.
 UNITS = ("m", "cm")
 
@@ -199,6 +200,13 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
     if mode not in MODES:
         raise InputError(f"{src}: `mode` = {mode!r} is not a known mode; "
                          f"allowed: {', '.join(map(repr, MODES))}")
+    if mode == "data":
+        from quadsim.horse.database import clip_folder
+
+        if clip_folder(character) is None:
+            raise InputError(f"{src}: `mode` = 'data' needs a character with a clip "
+                             f"database (characters/<id>/clips/manifest.toml); "
+                             f"{character.id!r} has none; allowed for it: 'procedural'")
     units = data.get("units", "m")
     if units not in UNITS:
         raise InputError(f"{src}: `units` = {units!r}; allowed: {', '.join(map(repr, UNITS))}")

@@ -114,7 +114,7 @@ def test_shipped_configs_validate(path):
     cfg = load_config(path)
     assert cfg.fps == 60
     assert 20.0 <= cfg.duration <= 30.0
-    assert cfg.character == path.stem
+    assert cfg.character == path.stem.removesuffix("_data")
     turns = [abs(c.turn_rate) for c in cfg.commands.commands if c.turn_rate]
     assert turns and max(turns) < math.radians(60.0)
 

@@ -3,7 +3,9 @@
 Modules: :mod:`.database` (looped BVH clips and their manifest; the
 :func:`~.database.cut_cycles` builder), :mod:`.legs` (two-bone IK that keeps
 the lower leg; holding stance feet), :mod:`.speed` (Hoyt's contact-time law,
-speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits).
+speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
+:mod:`.controller` (:class:`~.controller.HorseDataController`, the interactive
+data-driven horse, and :func:`~.controller.simulate`, used by ``mode = "data"``).
 """
 
 from .database import (
@@ -15,11 +17,14 @@ from .database import (
                        load_database,
                        load_default_database,
 )
+from .controller import HorseDataController
+from .controller import simulate as simulate_data
 from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
 from .timewarp import blend_frames, leg_times, synchronous_transition, transition_motion
 
 __all__ = [
                        "HOYT",
+                       "HorseDataController",
                        "SPEED_UNIT",
                        "Clip",
                        "ClipDatabase",
@@ -32,6 +37,7 @@ __all__ = [
                        "leg_times",
                        "load_database",
                        "load_default_database",
+                       "simulate_data",
                        "step_length",
                        "synchronous_transition",
                        "transition_motion",

@@ -30,6 +30,7 @@ turns a bone at angle ``phi`` to ``phi - theta``.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -90,15 +91,40 @@ class LegGeometry:
     lower: np.ndarray
     upper: np.ndarray
 
-    @property
+    @cached_property
     def limited(self) -> bool:
         """Whether any post joint has a finite flexion limit."""
-        return bool(np.any(np.isfinite(self.lower[self.pair + 2:]))
-                    or np.any(np.isfinite(self.upper[self.pair + 2:])))
+        return bool(np.any(np.isfinite(self.lower[..., self.pair + 2:]))
+                    or np.any(np.isfinite(self.upper[..., self.pair + 2:])))
 
     @property
     def n_bones(self) -> int:
-        return len(self.lengths)
+        return self.lengths.shape[-1]
+
+
+def stack_leg_geometries(geoms) -> LegGeometry:
+    """Several legs as one :class:`LegGeometry` with a trailing leg axis B.
+
+    The legs must have the same number of bones and the same pair bone.
+    The result's ``chain`` has shape (B, n + 1), ``parent`` is an int array
+    (B,), ``top_offset`` (B, 3), the per-bone arrays (B, n) and the scalars
+    (B,). :func:`solve_leg` takes it like a single leg; the batch shape of
+    its inputs must then end with B. Equal to solving each leg alone.
+    """
+    geoms = list(geoms)
+    first = geoms[0]
+    if any(g.n_bones != first.n_bones or g.pair != first.pair for g in geoms):
+        raise ValueError("stacked legs need the same number of bones and the same pair")
+
+    def st(name, dtype=float):
+        return np.array([getattr(g, name) for g in geoms], dtype=dtype)
+
+    return LegGeometry(
+        chain=st("chain", int), parent=st("parent", int), top_offset=st("top_offset"),
+        lengths=st("lengths"), rest_angles=st("rest_angles"), pair=first.pair,
+        bend=st("bend"), fold=st("fold"), pre_gain=st("pre_gain"),
+        post_gain=st("post_gain"), toe_angle=st("toe_angle"),
+        rest_leg_angle=st("rest_leg_angle"), lower=st("lower"), upper=st("upper"))
 
 
 def leg_geometry(character: Character, leg: LegSpec, *,
@@ -157,14 +183,15 @@ def _solve_pair(geom: LegGeometry, phi, qd, qf, down_t, fwd_t):
     L = geom.lengths
     k0 = geom.pair
     post = slice(k0 + 2, None)
-    cd = down_t - np.sum(L[post] * np.cos(phi[..., post]), axis=-1)
-    cf = fwd_t - np.sum(L[post] * np.sin(phi[..., post]), axis=-1)
-    l1, l2 = L[k0], L[k0 + 1]
+    cd = down_t - (L[..., post] * np.cos(phi[..., post])).sum(axis=-1)
+    cf = fwd_t - (L[..., post] * np.sin(phi[..., post])).sum(axis=-1)
+    l1, l2 = L[..., k0], L[..., k0 + 1]
     vd, vf = cd - qd, cf - qf
     r_true = np.hypot(vd, vf)
-    r = np.clip(r_true, abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
+    # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
+    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
     gam = np.arctan2(vf, vd)
-    cos_delta = np.clip((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0, 1.0)
+    cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
     bd = qd + l1 * np.cos(phi[..., k0])
     bf = qf + l1 * np.sin(phi[..., k0])
@@ -180,6 +207,8 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     Parameters
     ----------
     geom : LegGeometry
+        One leg, or several stacked by :func:`stack_leg_geometries` (then
+        every batch shape below ends with their number B).
     parent_rot : array-like, shape (..., 3, 3)
         World rotation of the top joint's parent.
     parent_pos : array-like, shape (..., 3)
@@ -205,7 +234,7 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1],
                                 np.shape(fold), np.shape(toe_pitch))
     RpT = np.swapaxes(Rp, -1, -2)
-    top = Pp + np.einsum("...ij,j->...i", Rp, geom.top_offset)
+    top = Pp + np.einsum("...ij,...j->...i", Rp, geom.top_offset)
     d = np.einsum("...ij,...j->...i", RpT, tgt - top)
     d = np.broadcast_to(d, batch + (3,))
     # abduction about the parent's forward axis brings the target into the plane
@@ -230,24 +259,24 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     qd = np.zeros(batch)
     qf = np.zeros(batch)
     for k in range(k0):
-        phi[..., k] = A0[k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
-        qd = qd + L[k] * np.cos(phi[..., k])
-        qf = qf + L[k] * np.sin(phi[..., k])
+        phi[..., k] = A0[..., k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
+        qd = qd + L[..., k] * np.cos(phi[..., k])
+        qf = qf + L[..., k] * np.sin(phi[..., k])
     # post bones: rest angle to the world vertical, turned with the leg, plus
     # the swing fold
     fold = np.asarray(fold, dtype=float)
     for k in range(k0 + 2, n):
-        phi[..., k] = (A0[k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
-                       + geom.fold[k] * fold)
+        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
+                       + geom.fold[..., k] * fold)
     reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
     # keep the post joints inside their limits relative to the bone above,
     # then solve the pair again for the moved post bones (twice: the second
     # pass corrects the small change the re-solved pair makes)
     for _ in range(2 if geom.limited else 0):
         for k in range(k0 + 2, n):
-            rel = (A0[k] - phi[..., k]) - (A0[k - 1] - phi[..., k - 1])
-            rel = np.clip(rel, geom.lower[k], geom.upper[k])
-            phi[..., k] = A0[k] - (A0[k - 1] - phi[..., k - 1]) - rel
+            rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
+            rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
+            phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
         reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
 
     theta = A0 - phi  # cumulative rotation about +X of each chain joint

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from quadsim.frames import FORE, Y, heading_vector
+from quadsim.frames import FORE, Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.commands import Command, Script
@@ -48,7 +48,7 @@ from quadsim.locomotion.gaits import (
 )
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.spine import flex_angle, rate_limited, spine_state, spine_target
-from quadsim.locomotion.transition import GaitParams, GaitScheduler
+from quadsim.locomotion.transition import GaitScheduler
 from quadsim.locomotion.turning import arc_advance, rotate_y, turn_rate_towards
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.fk import forward_kinematics
@@ -60,6 +60,9 @@ MIN_SWING = 0.12
 #: The standing state: every foot planted (duty factor 1), entered when the
 #: commanded speed is zero and left when it is not.
 STAND = "stand"
+
+#: Girdle of each leg in leg order (0 hind, 1 fore), indexing the key points.
+_GIRDLE = np.where(FORE, 1, 0)
 
 
 def _standing(slowest: Gait) -> Gait:
@@ -159,6 +162,9 @@ class ProceduralController:
         self.pair_height = P[pair_top, Y]
         self.drops = np.linspace(0.0, 0.3, 13)
         self.half_sweep = np.maximum.accumulate(self._measure_sweeps(self.drops), axis=0)
+        # per-step constants: each leg's sweep column and the worst leg's
+        self._sweep_cols = tuple(np.ascontiguousarray(self.half_sweep[:, i]) for i in range(4))
+        self._sweep_min = self.half_sweep.min(axis=1)
         # key points: girdle centres on the ground, relative to the pelvis
         self.hind_z = float(np.mean(P[pair_top[2:], 2]) - P[0, 2])
         self.body_length = float(np.mean(P[pair_top[:2], 2]) - np.mean(P[pair_top[2:], 2]))
@@ -208,9 +214,29 @@ class ProceduralController:
 
     def _key_points(self, root_xz, heading, bend):
         """Hind and fore key points (2, 3) and their headings (2,)."""
-        hind = root_xz + rotate_y(np.array([0.0, 0.0, self.hind_z]), heading)
-        fore = hind + rotate_y(np.array([0.0, 0.0, self.body_length]), heading + 0.5 * bend)
-        return np.stack([hind, fore]), np.array([heading, heading + bend])
+        # rotate_y of (0, 0, z) about +Y, in scalar form: (z sin h, 0, z cos h)
+        hz, bl = self.hind_z, self.body_length
+        fh = heading + 0.5 * bend
+        x, y, z = float(root_xz[0]), float(root_xz[1]), float(root_xz[2])
+        hx, hy, hzz = x + math.sin(heading) * hz, y + 0.0, z + math.cos(heading) * hz
+        keys = np.array([[hx, hy, hzz],
+                         [hx + math.sin(fh) * bl, hy + 0.0, hzz + math.cos(fh) * bl]])
+        return keys, np.array([heading, heading + bend])
+
+    def _girdle_frame(self, keys, key_heading):
+        """Each foot's mid-stance point (4, 3) and its girdle's forward vector (4, 3)."""
+        kh = key_heading[_GIRDLE]
+        c, sn = np.cos(kh), np.sin(kh)
+        off = self.foot_offset
+        mid = np.empty((4, 3))
+        mid[:, 0] = c * off[:, 0] + sn * off[:, 2]
+        mid[:, 1] = off[:, 1]
+        mid[:, 2] = -sn * off[:, 0] + c * off[:, 2]
+        mid += keys[_GIRDLE]
+        fwd = np.zeros((4, 3))
+        fwd[:, 0] = sn
+        fwd[:, 2] = c
+        return mid, fwd
 
     def _measure_sweeps(self, drops: np.ndarray) -> np.ndarray:
         """Half stance sweep each leg reaches exactly, per body drop, shape (D, 4) (m).
@@ -258,7 +284,8 @@ class ProceduralController:
         The bounding gaits keep a further 5 % in hand for the spine's flexion,
         which moves the girdles against the feet.
         """
-        half = min(float(np.interp(drop, self.drops, self.half_sweep[:, i])) for i in range(4))
+        drops = self.drops
+        half = min(float(np.interp(drop, drops, col)) for col in self._sweep_cols)
         margin = self.settings.reach_margin - 0.05 * bound
         return 2.0 * margin * half / max(duty, 1e-3)
 
@@ -267,11 +294,11 @@ class ProceduralController:
         of reach, shape (4,); the body may vault by the planned allowance."""
         p = self.params
         keys, kh = self._key_points(self.root_xz, self.heading, self.bend)
-        g = np.where(FORE, 1, 0)
-        mid = keys[g] + rotate_y(self.foot_offset, kh[g])
-        along = np.einsum("ij,ij->i", self.planted - mid, heading_vector(kh[g]))
-        drop = max(p.drop + self.settings.vault, float(np.max(self.drops_now)))
-        return np.interp(drop, self.drops, self.half_sweep.min(axis=1)) + along
+        mid, fwd = self._girdle_frame(keys, kh)
+        along = np.einsum("ij,ij->i", self.planted - mid, fwd)
+        d0, d1 = self.drops_now
+        drop = max(p.drop + self.settings.vault, float(max(d0, d1)))
+        return np.interp(drop, self.drops, self._sweep_min) + along
 
     def _reach_governor(self, dt: float) -> float:
         """Fastest speed (m/s) at which no planted foot falls out of reach before
@@ -293,7 +320,7 @@ class ProceduralController:
         """Body drop (fraction of pelvis height) at which a planted foot ``offset``
         metres fore or aft of its mid-stance point is within the leg's reach margin."""
         x = abs(offset) / self.settings.reach_margin
-        return float(np.interp(x, self.half_sweep[:, leg], self.drops))
+        return float(np.interp(x, self._sweep_cols[leg], self.drops))
 
     # ------------------------------------------------------------ stepping
     def step(self, command: Command, dt: float | None = None, *, pose: bool = True) -> dict:
@@ -313,7 +340,8 @@ class ProceduralController:
         """
         frame = self._advance(command, dt)
         if pose:
-            local, root, err = self.poser.pose(stack_plans([frame]))
+            plan = {k: np.asarray(frame[k])[None] for k in _POSE_KEYS}
+            local, root, err = self.poser.pose(plan)
             _, P = forward_kinematics(self.character.skeleton, local, root)
             frame["local_rotations"] = local[0]
             frame["positions"] = P[0]
@@ -343,7 +371,7 @@ class ProceduralController:
             progress = min(sch.elapsed / sch.duration, 1.0) if sch.in_transition else 0.0
             v_cmd = min(v_cmd, max(progress, 0.0) ** 2 * self.gaits[self.auto[0]].speed_range[1])
         v_cmd = min(v_cmd, self._reach_governor(dt))
-        dv = np.clip(v_cmd - self.speed, -s.acceleration * dt, s.acceleration * dt)
+        dv = min(max(v_cmd - self.speed, -s.acceleration * dt), s.acceleration * dt)
         v_before = self.speed
         self.speed = max(self.speed + float(dv), 0.0)
         v = self.speed
@@ -374,10 +402,9 @@ class ProceduralController:
         quick = 0.6 if self.scheduler.current == STAND else None
         p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3), quick)
         self.params = p
-        lam = min(p.stride_length(v, self.h),
-                  self.stride_limit(p.duty, p.drop + s.vault, p.bound))
-        lam_min_speed = min(p.stride_length(p.min_speed, self.h),
-                            self.stride_limit(p.duty, p.drop + s.vault, p.bound))
+        limit = self.stride_limit(p.duty, p.drop + s.vault, p.bound)
+        lam = min(p.stride_length(v, self.h), limit)
+        lam_min_speed = min(p.stride_length(p.min_speed, self.h), limit)
         self.freq = max(v / lam, p.min_speed / lam_min_speed) if v > 1e-6 else \
             p.min_speed / lam_min_speed
         omega = TWO_PI * self.freq
@@ -392,10 +419,12 @@ class ProceduralController:
         # 4. body on its path -------------------------------------------------
         # trapezoidal in speed and heading: exact for constant acceleration
         self.heading = self.heading + self.yaw_rate * dt
-        self.root_xz = self.root_xz + 0.5 * (v_before + v) * dt * heading_vector(
-            self.heading - 0.5 * self.yaw_rate * dt)
-        bend_target = np.clip(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
-                              -s.max_bend, s.max_bend)
+        k = 0.5 * (v_before + v) * dt  # heading_vector in scalar form
+        mid_heading = self.heading - 0.5 * self.yaw_rate * dt
+        self.root_xz = self.root_xz + np.array([k * math.sin(mid_heading), k * 0.0,
+                                                k * math.cos(mid_heading)])
+        bend_target = min(max(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
+                              -s.max_bend), s.max_bend)
         self.bend += (bend_target - self.bend) * (1.0 - math.exp(-dt / 0.2))
         keys, key_heading = self._key_points(self.root_xz, self.heading, self.bend)
 
@@ -403,7 +432,7 @@ class ProceduralController:
         u = np.mod(self.theta / TWO_PI, 1.0)
         # a foot landing now stays down until the duty factor it will end with:
         # during a transition towards a longer stance, plan for the longer one
-        final = GaitParams.of(self.gaits[self.scheduler.current], v)
+        final = self.scheduler.target(self.scheduler.current, v)
         stance_time = max(p.duty, min(final.duty, 1.0 - MIN_SWING)) / self.freq
         trailing = self._trailing_room() < v * dt  # out of reach by the next frame
         for i in range(4):
@@ -428,12 +457,12 @@ class ProceduralController:
                     self.swing_s[i] = 0.0
             if not self.stance[i]:
                 span = self.theta_td[i] - self.theta_lo[i]
-                sp = float(np.clip((self.theta[i] - self.theta_lo[i]) / span, 0.0, 1.0))
+                sp = min(max(float((self.theta[i] - self.theta_lo[i]) / span), 0.0), 1.0)
                 self.swing_s[i] = max(self.swing_s[i], sp)
-        g = np.where(FORE, 1, 0)
+        g = _GIRDLE
         remaining = np.maximum(self.theta_td - self.theta, 0.0) / omega
         # land half a stance ahead of the girdle, but never beyond the leg's reach
-        half = np.interp(p.drop + s.vault, self.drops, self.half_sweep.min(axis=1))
+        half = np.interp(p.drop + s.vault, self.drops, self._sweep_min)
         lead = min(0.5 * stance_time, self.settings.reach_margin * half / max(v, 1e-6))
         tau = remaining + lead
         kp, kh = arc_advance(keys[g], key_heading[g], v, self.yaw_rate, tau)
@@ -463,11 +492,11 @@ class ProceduralController:
         slow_angle = float(flex_angle(self.theta_s, self.slow_scale * p.spine_amplitude))
         raw = p.bound * bound_angle + (1.0 - p.bound) * slow_angle
         self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.03))
-        support = np.where(self.stance, np.sin(np.pi * np.clip(u / max(p.duty, 1e-3), 0, 1)), 0)
+        support = np.where(self.stance, np.sin(np.pi * np.minimum(np.maximum(u / max(p.duty, 1e-3), 0), 1)), 0)
         bob = 0.6 * p.drop * self.h * (0.5 - float(np.mean(support)))
         # vaulting: each girdle drops as far as its planted feet need
-        mid = keys[g] + rotate_y(self.foot_offset, key_heading[g])
-        along = np.einsum("ij,ij->i", self.feet - mid, heading_vector(key_heading[g]))
+        mid, fwd = self._girdle_frame(keys, key_heading)
+        along = np.einsum("ij,ij->i", self.feet - mid, fwd)
         need = np.array([self.needed_drop(i, along[i]) if self.stance[i] else 0.0
                          for i in range(4)])
         drop_g = np.maximum(p.drop, [need[2:].max(), need[:2].max()])  # hind, fore
@@ -479,8 +508,8 @@ class ProceduralController:
         # girdle sway from where the left and right feet are (seed figure 5)
         local = rotate_y(self.feet - keys[g], -key_heading[g])
         width = np.maximum(np.abs(local[[0, 2], 0] - local[[1, 3], 0]), 1e-3)
-        sway = np.clip(0.1 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2], width),
-                       -s.max_sway, s.max_sway)[::-1]
+        sway = np.minimum(np.maximum(0.1 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2],
+                                                      width), -s.max_sway), s.max_sway)[::-1]
         # tail: each joint follows the one before with a lag
         n_tail = len(self.tail)
         if n_tail:
@@ -492,7 +521,6 @@ class ProceduralController:
 
         self.time += dt
         root = np.array([self.root_xz[0], self.height, self.root_xz[2]])
-        root = root + rotate_y(np.array([0.0, 0.0, 0.0]), self.heading)
         return {
             "root": root,
             "heading": np.asarray(self.heading),
@@ -519,6 +547,10 @@ class ProceduralController:
         """Local rotations (T, J, 3, 3), root positions (T, 3) and IK errors (T, 4)."""
         return self.poser.pose(plans)
 
+
+#: the plan fields the posing reads
+_POSE_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
+              "toe", "tail", "look")
 
 _ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
                "toe", "tail", "look", "contacts", "phase", "speed", "duty", "spine",

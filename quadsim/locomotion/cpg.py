@@ -30,7 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 TWO_PI = 2.0 * np.pi
-#: legs driving the spine oscillator (LF and LH), see module docstring
+#: legs driving the spine oscillator (LF and LH), see module docstring; the
+#: derivatives take them as the slice ``[..., ::2]``
 _SPINE_DRIVERS = np.array([0, 2])
 
 
@@ -73,15 +74,15 @@ def amplitude_after(r, t, p: CPGParams):
     return np.where(r2 > 0, out, 0.0)
 
 
-def _phase_derivatives(theta, r, theta_s, omega, psi, p: CPGParams):
-    # theta (..., 4), r (..., 4), theta_s (...), omega (...), psi (..., 4)
-    phi = TWO_PI * (psi[..., :, None] - psi[..., None, :])  # phi_ij
+def _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, p: CPGParams):
+    # theta (..., 4), r (..., 4), theta_s (...), omega (...), phi (..., 4, 4) the
+    # offsets phi_ij, psi_s (..., 2) the spine drivers' 2 pi psi_j
     diff = theta[..., None, :] - theta[..., :, None] - phi  # theta_j - theta_i - phi_ij
-    dtheta = omega[..., None] + p.coupling * np.sum(r[..., None, :] * np.sin(diff), axis=-1)
+    dtheta = omega[..., None] + p.coupling * (r[..., None, :] * np.sin(diff)).sum(axis=-1)
     # spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (i.e. theta_LH)
-    drv = theta[..., _SPINE_DRIVERS] + TWO_PI * psi[..., _SPINE_DRIVERS]
-    dtheta_s = omega + p.spine_coupling * np.sum(
-        r[..., _SPINE_DRIVERS] * np.sin(drv - theta_s[..., None]), axis=-1)
+    drv = theta[..., ::2] + psi_s
+    dtheta_s = omega + p.spine_coupling * (
+        r[..., ::2] * np.sin(drv - theta_s[..., None])).sum(axis=-1)
     return dtheta, dtheta_s
 
 
@@ -113,16 +114,19 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGPara
     h = dt / params.substeps
     theta = np.asarray(theta, dtype=float)
     theta_s = np.asarray(theta_s, dtype=float)
+    # constant over the step: the offsets phi_ij and the spine drivers' phases
+    phi = TWO_PI * (psi[..., :, None] - psi[..., None, :])
+    psi_s = TWO_PI * psi[..., _SPINE_DRIVERS]
     for _ in range(params.substeps):
         r_mid = amplitude_after(r, 0.5 * h, params)
         r_end = amplitude_after(r, h, params)
-        k1 = _phase_derivatives(theta, r, theta_s, omega, psi, params)
+        k1 = _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, params)
         k2 = _phase_derivatives(theta + 0.5 * h * k1[0], r_mid, theta_s + 0.5 * h * k1[1],
-                                omega, psi, params)
+                                omega, phi, psi_s, params)
         k3 = _phase_derivatives(theta + 0.5 * h * k2[0], r_mid, theta_s + 0.5 * h * k2[1],
-                                omega, psi, params)
+                                omega, phi, psi_s, params)
         k4 = _phase_derivatives(theta + h * k3[0], r_end, theta_s + h * k3[1],
-                                omega, psi, params)
+                                omega, phi, psi_s, params)
         theta = theta + (h / 6.0) * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
         theta_s = theta_s + (h / 6.0) * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
         r = r_end

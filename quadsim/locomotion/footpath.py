@@ -28,15 +28,16 @@ def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
     if K < 4:
         raise ValueError(f"`points` needs at least 4 control points, got {K}")
     nseg = K - 3
-    s = np.clip(np.asarray(s, dtype=float), 0.0, 1.0)
+    s = np.minimum(np.maximum(np.asarray(s, dtype=float), 0.0), 1.0)
     s = np.broadcast_to(s, np.broadcast_shapes(s.shape, P.shape[:-2]))
     x = s * nseg
     i = np.minimum(np.floor(x).astype(int), nseg - 1)
     t = (x - i)[..., None]
-    idx = i[..., None, None] + np.arange(4)[:, None]  # (..., 4, 1)
-    idx = np.broadcast_to(idx, s.shape + (4, 3))
-    Pb = np.broadcast_to(P, s.shape + P.shape[-2:])
-    p0, p1, p2, p3 = np.moveaxis(np.take_along_axis(Pb, idx, axis=-2), -2, 0)
+    # the four control points of each point's segment, gathered row by row
+    Pb = np.broadcast_to(P, s.shape + P.shape[-2:]).reshape((-1,) + P.shape[-2:])
+    rows = np.arange(Pb.shape[0])
+    i = i.reshape(-1)
+    p0, p1, p2, p3 = (Pb[rows, i + k].reshape(s.shape + (3,)) for k in range(4))
     t2, t3 = t * t, t * t * t
     return 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
                   + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)

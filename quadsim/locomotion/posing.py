@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from quadsim.kinematics.ik import LegGeometry, leg_geometry, solve_leg
+from quadsim.kinematics.ik import LegGeometry, leg_geometry, solve_leg, stack_leg_geometries
 from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.fk import forward_kinematics
@@ -36,14 +36,27 @@ PLAN_FIELDS = {
 
 @dataclass(frozen=True, eq=False)
 class Poser:
-    """Precomputed posing data for one character."""
+    """Precomputed posing data for one character.
+
+    ``groups`` gathers the legs the IK solves together, as one stacked
+    geometry each (:func:`~quadsim.kinematics.ik.stack_leg_geometries`):
+    legs with the same number of bones, pair bone and joint limits' use
+    (a left leg and its right partner, or all four), with their leg indices.
+    """
 
     character: Character
     legs: tuple[LegGeometry, ...]
+    groups: tuple[tuple[np.ndarray, LegGeometry], ...] = ()
 
     @classmethod
     def for_character(cls, character: Character) -> Poser:
-        return cls(character, tuple(leg_geometry(character, leg) for leg in character.legs))
+        legs = tuple(leg_geometry(character, leg) for leg in character.legs)
+        keys: dict[tuple, list[int]] = {}
+        for i, g in enumerate(legs):
+            keys.setdefault((g.n_bones, g.pair, g.limited), []).append(i)
+        groups = tuple((np.array(idx), stack_leg_geometries([legs[i] for i in idx]))
+                       for idx in keys.values())
+        return cls(character, legs, groups)
 
     def pose(self, plan: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Local rotations for plans of T frames.
@@ -92,15 +105,15 @@ class Poser:
         if len(ch.neck):
             thorax = G[:, ch.spine[-1]]
             fwd = thorax[:, :, 2]
-            pitch = np.arcsin(np.clip(-fwd[:, 1], -1, 1))  # nose-down positive
+            pitch = np.arcsin(np.minimum(np.maximum(-fwd[:, 1], -1), 1))  # nose-down positive
             n = len(ch.neck)
             L[:, ch.neck] = (ry(plan["look"][:, None] / n * np.ones(n))
                              @ rx(-pitch[:, None] / n * np.ones(n)))
 
         err = np.zeros((T, 4))
-        for i, geom in enumerate(self.legs):
-            local, err[:, i] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
-                                         plan["feet"][:, i], plan["fold"][:, i],
-                                         plan["toe"][:, i])
+        for idx, geom in self.groups:
+            local, err[:, idx] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
+                                           plan["feet"][:, idx], plan["fold"][:, idx],
+                                           plan["toe"][:, idx])
             L[:, geom.chain] = local
         return L, root, err

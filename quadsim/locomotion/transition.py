@@ -102,6 +102,7 @@ class GaitScheduler:
         self.source_name = initial
         self.elapsed = 0.0
         self.duration = 0.0
+        self._last: tuple[str, float, GaitParams] | None = None
 
     @property
     def in_transition(self) -> bool:
@@ -123,11 +124,20 @@ class GaitScheduler:
 
     def params(self, speed: float) -> GaitParams:
         """Blended parameters now, at ``speed``."""
-        target = GaitParams.of(self.gaits[self.current], speed)
+        target = self.target(self.current, speed)
         if self.source is None:
             return target
         s = min(self.elapsed / self.duration, 1.0) ** 2
         return self.source.blend(target, s)
+
+    def target(self, name: str, speed: float) -> GaitParams:
+        """``GaitParams.of(gaits[name], speed)``, remembered for the last call."""
+        last = self._last
+        if last is not None and last[0] == name and last[1] == speed:
+            return last[2]
+        out = GaitParams.of(self.gaits[name], speed)
+        self._last = (name, speed, out)
+        return out
 
     def update(self, wanted: str, speed: float, dt: float, stride_period: float,
                duration: float | None = None) -> GaitParams:

@@ -70,8 +70,10 @@ def rotate_y(vectors, angle):
     """Rotate ``(..., 3)`` vectors about +Y by ``angle`` (rad)."""
     v = np.asarray(vectors, dtype=float)
     a = np.asarray(angle, dtype=float)
-    v = np.broadcast_to(v, np.broadcast_shapes(v.shape, a.shape + (3,)))
     c, s = np.cos(a), np.sin(a)
-    x = c * v[..., 0] + s * v[..., 2]
-    z = -s * v[..., 0] + c * v[..., 2]
-    return np.stack([x, v[..., 1], z], axis=-1)
+    out = np.empty(np.broadcast_shapes(v.shape, a.shape + (3,)))
+    v0, v2 = v[..., 0], v[..., 2]
+    out[..., 0] = c * v0 + s * v2
+    out[..., 1] = v[..., 1]
+    out[..., 2] = -s * v0 + c * v2
+    return out

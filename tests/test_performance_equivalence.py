@@ -1,0 +1,116 @@
+"""The fast paths compute what the straightforward ones do.
+
+Interactive stepping (one frame posed at a time, ``step(pose=True)``) and
+offline :func:`simulate` (plans first, all frames posed at once) must give
+the same motion; the IK of stacked legs must equal each leg solved alone;
+the CPG on a batch must equal each oscillator network alone.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from quadsim.kinematics.ik import leg_geometry, solve_leg, stack_leg_geometries
+from quadsim.kinematics.rotations import quaternions_from_matrices
+from quadsim.locomotion.commands import Command, Script
+from quadsim.locomotion.controller import ProceduralController, simulate
+from quadsim.locomotion.cpg import cpg_step
+from quadsim.locomotion.gaits import max_speed
+from quadsim.skeleton.character import load_character
+
+CHARACTERS = ("leopard", "leopard_cub", "dog_cub", "horse")
+TOL = 1e-9
+
+
+def _tour(character) -> Script:
+    """Start, walk, run, turn both ways, a requested gait, stop."""
+    top = max_speed(character)
+    return Script((0.0, 1.0, 2.0, 3.0, 4.0, 5.0),
+                  (Command(speed=0.15 * top), Command(speed=0.5 * top, turn_rate=0.5),
+                   Command(speed=0.8 * top, heading=-0.6), Command(speed=0.3 * top, gait="trot"),
+                   Command(speed=0.2 * top, turn_rate=-0.4), Command(speed=0.0)))
+
+
+@pytest.mark.parametrize("name", CHARACTERS)
+def test_step_by_step_equals_simulate(name):
+    ch = load_character(name)
+    script, fps, seconds = _tour(ch), 60.0, 6.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        motion = simulate(ch, script, seconds, fps, seed=3)
+        dt = 1.0 / fps
+        ctl = ProceduralController(ch, dt=dt, seed=3, gait=script.commands[0].gait)
+        frames = [ctl.step(script.commands[0], 0.0, pose=True)]
+        frames += [ctl.step(script.command_at((k - 1) * dt), dt, pose=True)
+                   for k in range(1, motion.n_frames)]
+    local = np.stack([f["local_rotations"] for f in frames])
+    np.testing.assert_allclose(quaternions_from_matrices(local), motion.rotations, atol=TOL)
+    np.testing.assert_allclose(np.stack([f["root"] for f in frames]), motion.root_positions,
+                               atol=TOL)
+    np.testing.assert_allclose(np.stack([f["positions"] for f in frames]),
+                               motion.world_positions(), atol=1e-8)
+    np.testing.assert_array_equal(np.stack([f["contacts"] for f in frames]), motion.contacts)
+    np.testing.assert_allclose(np.stack([f["phase"] for f in frames]), motion.extras["phase"],
+                               atol=TOL)
+    np.testing.assert_allclose(np.stack([f["ik_error"] for f in frames]),
+                               motion.extras["ik_error"], atol=TOL)
+    assert [f["gait"] for f in frames] == list(motion.gaits)
+
+
+@pytest.mark.parametrize("name", CHARACTERS)
+def test_stacked_legs_equal_each_leg_alone(name):
+    rng = np.random.default_rng(11)
+    ch = load_character(name)
+    legs = [leg_geometry(ch, leg) for leg in ch.legs]
+    rest = ch.skeleton.rest_positions
+    groups = {}
+    for i, g in enumerate(legs):
+        groups.setdefault((g.n_bones, g.pair), []).append(i)
+    T = 7
+    for idx in groups.values():
+        stacked = stack_leg_geometries([legs[i] for i in idx])
+        B = len(idx)
+        angles = rng.normal(0.0, 0.2, (T, B, 3))
+        R = np.stack([np.stack([_rot(a) for a in row]) for row in angles])
+        parent = rest[stacked.parent] + rng.normal(0.0, 0.02, (T, B, 3))
+        feet = np.stack([rest[ch.legs[i].foot] for i in idx])
+        targets = feet + rng.normal(0.0, 0.1 * ch.hip_height, (T, B, 3))
+        fold, toe = rng.uniform(0, 1, (T, B)), rng.normal(0, 0.2, (T, B))
+        local, reached = solve_leg(stacked, R, parent, targets, fold, toe)
+        for b, i in enumerate(idx):
+            li, ri = solve_leg(legs[i], R[:, b], parent[:, b], targets[:, b], fold[:, b],
+                               toe[:, b])
+            np.testing.assert_allclose(local[:, b], li, atol=1e-12)
+            np.testing.assert_allclose(reached[:, b], ri, atol=1e-12)
+
+
+def _rot(a):
+    cx, sx = np.cos(a[0]), np.sin(a[0])
+    cy, sy = np.cos(a[1]), np.sin(a[1])
+    Rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    Ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    return Ry @ Rx
+
+
+def test_stacking_legs_of_different_shape_is_refused():
+    ch = load_character("leopard")
+    legs = [leg_geometry(ch, leg) for leg in ch.legs]
+    if legs[0].n_bones == legs[2].n_bones and legs[0].pair == legs[2].pair:
+        pytest.skip("fore and hind legs have the same shape")
+    with pytest.raises(ValueError, match="same number of bones"):
+        stack_leg_geometries([legs[0], legs[2]])
+
+
+def test_cpg_batch_equals_each_network_alone():
+    rng = np.random.default_rng(5)
+    N = 6
+    theta = rng.uniform(0, 20, (N, 4))
+    r = rng.uniform(0.2, 1.5, (N, 4))
+    theta_s, r_s = rng.uniform(0, 20, N), rng.uniform(0.2, 1.5, N)
+    omega, psi = rng.uniform(3, 20, N), rng.uniform(0, 1, (N, 4))
+    out = cpg_step(theta, r, theta_s, r_s, omega, psi, 1 / 60)
+    for n in range(N):
+        one = cpg_step(theta[n], r[n], theta_s[n], r_s[n], omega[n], psi[n], 1 / 60)
+        for a, b in zip(out, one):
+            np.testing.assert_allclose(a[n], b, atol=1e-12)
