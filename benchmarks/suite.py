@@ -11,14 +11,24 @@ Measures, on this machine and CPU only:
     :func:`simulate` steps before posing all frames at once);
 (b) ``simulate``: offline generation of a 60 s clip at 60 fps (s);
 (c) ``many``: N characters stepped together (character-frames per second),
-    N = 1, 10, 100, 1000 (and 10000 with ``--max-n 10000``); how they are
-    stepped is recorded in the result (``method``);
-(d) ``export``: :func:`write_bvh` and :func:`write_glb` of the 60 s clip (s).
+    N = 1, 10, 100, 1000 (and 10000 with ``--max-n 10000``) by
+    :class:`~quadsim.locomotion.batch.BatchController`, with the memory a step
+    takes; the result records the method (``method``) and, for small N, the
+    Python loop over lone controllers for comparison;
+(a') the data-driven horse's step, when ``quadsim.horse`` provides
+    ``HorseDataController`` (``step["horse_data"]``);
+(d) ``export``: :func:`write_bvh` and :func:`write_glb` of the 60 s clip (s);
+(w) ``warm_up``: the one-off cost, in a fresh process, of the first posed
+    step -- the compiled kernels loaded from numba's on-disk cache
+    (``cached_s``) and, with an empty cache, compiled from scratch
+    (``compile_s``, paid once per install or source change) -- then of the
+    first batched step (``batch_*``, the batch's own kernels), and of
+    importing quadsim (``import_s``). The other figures exclude it.
 
-Every figure is the median over repeats (fewer repeats for the large N)
-of wall-clock time (the step and simulate figures also in CPU time of this
-process, ``*_cpu_*``, steadier on a shared machine); the JSON result also keeps each repeat and the load
-average, since a busy machine shows in the numbers. The result goes to
+Every figure is the median over repeats of wall-clock time, and also of
+this process's CPU time (``*_cpu_*``), steadier on a shared machine; the
+JSON result also keeps each repeat and the load average, since a busy
+machine shows in the numbers. The result goes to
 ``benchmarks/results/<machine>.json`` unless ``--out`` says otherwise, where
 ``<machine>`` names the CPU model and its number of cores.
 """
@@ -76,7 +86,15 @@ def machine_info() -> dict:
             "load_average_1_5_15_min": load,
             "machine": platform.machine(), "system": platform.platform(),
             "python": platform.python_version(), "numpy": np.__version__,
+            "numba": _version("numba"),
             "quadsim": getattr(quadsim, "__version__", "?")}
+
+
+def _version(module: str) -> str | None:
+    try:
+        return __import__(module).__version__
+    except ImportError:
+        return None
 
 
 def machine_slug(info: dict) -> str:
@@ -104,8 +122,10 @@ def _step_command(controller):
 
 
 def _warm(controller, command, steps: int = 120) -> None:
-    for _ in range(steps):
-        controller.step(command, pose=False)
+    """Walk a controller into its gait; the last step posed, so that the
+    compiled posing kernel is loaded (its one-off cost is ``warm_up``'s)."""
+    for k in range(steps):
+        controller.step(command, pose=k == steps - 1)
 
 
 def _clone(controller):
@@ -168,44 +188,154 @@ def bench_simulate(character: str, repeats: int):
             "frames": motion.n_frames, "real_time_factor": CLIP_SECONDS / _median(times)}, motion
 
 
+# ------------------------------------------------------------------ (a') horse data mode
+def bench_horse_data(frames: int, repeats: int) -> dict | None:
+    """Interactive steps per second of the data-driven horse, if that mode exists."""
+    try:
+        from quadsim.horse.controller import HorseDataController
+    except ImportError:
+        return None
+    from quadsim.locomotion.commands import Command
+
+    ch = _load("horse")
+    base = HorseDataController(ch)
+    cmd = Command(speed=3.0, turn_rate=STEP_TURN_RATE)
+    for _ in range(60):
+        base.step(cmd)
+    rates, cpu = [], []
+    for _ in range(repeats):
+        ctl = copy.deepcopy(base, {id(base.character): base.character, id(base.db): base.db})
+        t0, c0 = time.perf_counter(), time.process_time()
+        for _ in range(frames):
+            ctl.step(cmd)
+        rates.append(frames / (time.perf_counter() - t0))
+        cpu.append(frames / max(time.process_time() - c0, 1e-9))
+    return {"steps_per_s": _median(rates), "repeats": [round(r, 1) for r in rates],
+            "steps_per_cpu_s": _median(cpu), "frames": frames,
+            "command": "3 m/s, 0.3 rad/s turn"}
+
+
 # ------------------------------------------------------------------ (c) many
-def bench_many(character: str, ns, frames_for, repeats_for) -> dict:
-    """Character-frames per second for N characters of one kind stepped together."""
+MANY_METHOD = ("BatchController.step(pose=True): the N characters as arrays with a leading "
+               "character axis; speed, turning and gait choice as vectorised numpy, then "
+               "compiled (numba) kernels looping over the characters for the CPG, the feet, "
+               "the spine and body, and the posing (leg IK and forward kinematics of every "
+               "joint)")
+LOOP_METHOD = "N independent ProceduralController.step(pose=True) calls in a Python loop"
+
+
+def _herd_commands(max_speed: float, n: int, rng):
+    """Each character its own speed (10-60 % of the top speed) and turn rate."""
+    return max_speed * rng.uniform(0.1, 0.6, n), rng.uniform(-0.4, 0.4, n)
+
+
+def bench_many(character: str, ns, frames_for, repeats_for, loop_up_to: int = 10) -> dict:
+    """Character-frames per second for N characters of one kind stepped together.
+
+    The characters have their own seeds, speeds and turn rates and are warmed
+    up for a second before timing. For N up to ``loop_up_to`` the Python loop
+    over lone controllers is timed too, for comparison. The memory figures
+    are the peak Python heap (``tracemalloc``) over one posed step, with the
+    controller's state, and the process's peak resident size so far.
+    """
+    import resource
+    import tracemalloc
+
+    from quadsim.locomotion.batch import BatchController
+    from quadsim.locomotion.commands import Command
     from quadsim.locomotion.controller import ProceduralController
 
     ch = _load(character)
     rng = np.random.default_rng(0)
-    base = ProceduralController(ch, seed=0)
-    cmd = _step_command(base)
-    _warm(base, cmd, 60)
-    try:
-        from quadsim.locomotion.batch import BatchController  # noqa: F401
-        method = "batch"
-    except ImportError:
-        method = "loop"
-    from quadsim.locomotion.commands import Command
-
-    out = {"character": character, "pose": True,
-           "method": {"loop": "N independent ProceduralController.step(pose=True) "
-                      "calls in a Python loop"}.get(method, "BatchController"),
-           "by_n": {}}
+    out = {"character": character, "pose": True, "method": MANY_METHOD, "by_n": {}}
     for n in ns:
-        ctls = [_clone(base) for _ in range(n)]
-        speeds = base.max_speed * rng.uniform(0.1, 0.6, n)
-        cmds = [Command(speed=float(v), turn_rate=float(w))
-                for v, w in zip(speeds, rng.uniform(-0.4, 0.4, n))]
-        frames, rates = frames_for(n), []
+        tracemalloc.start()
+        herd = BatchController([ch] * n, seeds=np.arange(n))
+        speeds, turns = _herd_commands(herd.max_speed[0], n, rng)
+        for _ in range(60):
+            herd.step(speeds, turns, pose=False)
+        state_bytes = tracemalloc.get_traced_memory()[0]
+        tracemalloc.reset_peak()
+        herd.step(speeds, turns, pose=True)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        frames, rates, cpu = frames_for(n), [], []
         for _ in range(repeats_for(n)):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             for _ in range(frames):
+                herd.step(speeds, turns, pose=True)
+            rates.append(n * frames / (time.perf_counter() - t0))
+            cpu.append(n * frames / max(time.process_time() - c0, 1e-9))
+        r = {"character_frames_per_s": _median(rates),
+             "character_frames_per_cpu_s": _median(cpu),
+             "real_time_characters_at_60fps": _median(rates) / 60.0,
+             "frames": frames, "repeats": [round(x, 1) for x in rates],
+             "state_bytes": int(state_bytes), "peak_step_bytes": int(peak),
+             "max_rss_bytes": int(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss) * 1024}
+        del herd
+        if n <= loop_up_to:
+            base = ProceduralController(ch, seed=0)
+            ctls = [_clone(base) for _ in range(n)]
+            cmds = [Command(speed=float(v), turn_rate=float(w)) for v, w in zip(speeds, turns)]
+            loop_frames = max(2, min(60, 300 // n))
+            t0 = time.process_time()
+            for _ in range(loop_frames):
                 for c, k in zip(ctls, cmds):
                     c.step(k, pose=True)
-            rates.append(n * frames / (time.perf_counter() - t0))
-        out["by_n"][str(n)] = {"character_frames_per_s": _median(rates),
-                               "real_time_characters_at_60fps": _median(rates) / 60.0,
-                               "frames": frames, "repeats": [round(r, 1) for r in rates]}
-        del ctls
+            r["loop_character_frames_per_cpu_s"] = n * loop_frames / max(
+                time.process_time() - t0, 1e-9)
+        out["by_n"][str(n)] = r
+    out["loop_method"] = LOOP_METHOD
     return out
+
+
+# ------------------------------------------------------------------ (w) warm-up
+_WARM_UP_CODE = """
+import time
+t0, c0 = time.perf_counter(), time.process_time()
+from quadsim.locomotion.controller import ProceduralController
+from quadsim.locomotion.commands import Command
+from quadsim.skeleton.character import load_character
+ctl = ProceduralController(load_character({character!r}))
+t1, c1 = time.perf_counter(), time.process_time()
+ctl.step(Command(speed=1.0), pose=True)
+t2, c2 = time.perf_counter(), time.process_time()
+from quadsim.locomotion.batch import BatchController
+herd = BatchController([ctl.character] * 2)
+t3, c3 = time.perf_counter(), time.process_time()
+herd.step([1.0, 1.0], pose=True)
+t4, c4 = time.perf_counter(), time.process_time()
+print(t1 - t0, c1 - c0, t2 - t1, c2 - c1, t4 - t3, c4 - c3)
+"""
+
+
+def bench_warm_up(character: str) -> dict:
+    """One-off costs in fresh processes: importing quadsim and building a
+    controller, and the first posed step with numba's cache warm and empty."""
+    import subprocess
+
+    def fresh(env):
+        out = subprocess.run([sys.executable, "-c", _WARM_UP_CODE.format(character=character)],
+                             env=env, capture_output=True, text=True, check=True)
+        return [float(x) for x in out.stdout.split()]
+
+    env = dict(os.environ)
+    fresh(env)  # fill the cache if this install has not yet
+    cached = fresh(env)
+    with tempfile.TemporaryDirectory() as empty:
+        env["NUMBA_CACHE_DIR"] = empty
+        compiled = fresh(env)
+    return {"character": character,
+            "import_s": cached[0], "import_cpu_s": cached[1],
+            "cached_s": cached[2], "cached_cpu_s": cached[3],
+            "compile_s": compiled[2], "compile_cpu_s": compiled[3],
+            "batch_cached_s": cached[4], "batch_cached_cpu_s": cached[5],
+            "batch_compile_s": compiled[4], "batch_compile_cpu_s": compiled[5],
+            "note": "first posed ProceduralController.step of a fresh process (loads or "
+                    "compiles the CPG, feet and posing kernels), then the first "
+                    "BatchController.step (adds the body kernel), numba's on-disk cache "
+                    "warm (cached) and empty (compile); import_s: importing quadsim and "
+                    "building the controller (with the character's reach measured)"}
 
 
 # ------------------------------------------------------------------ (d) export
@@ -234,23 +364,34 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
     log(f"quadsim {info['quadsim']} on {info['cpu']}, {info['cores']} cores "
         f"({info['system']}); Python {info['python']}, numpy {info['numpy']}")
     if info["load_average_1_5_15_min"]:
-        log(f"load average {info['load_average_1_5_15_min']} (figures are wall-clock: "
-            "run on an idle machine)")
+        log(f"load average {info['load_average_1_5_15_min']} (figures are wall-clock, "
+            "CPU time in brackets: run on an idle machine)")
     step_frames, step_repeats = (60, 2) if quick else (300, 3)
-    sim_repeats = 1
+    sim_repeats = 3
     result = {"machine": info, "quick": quick,
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
               "step": {}, "simulate": {}, "many": {}, "export": {}}
     t_all = time.perf_counter()
     warnings.simplefilter("ignore")  # clamp warnings are not what is measured
+    log("(w) one-off warm-up of a fresh process (compiled kernels), seconds")
+    w = result["warm_up"] = bench_warm_up(characters[0])
+    log(f"    import and set-up {w['import_s']:.2f} s; first posed step {w['cached_s']:.2f} s "
+        f"(numba cache warm), {w['compile_s']:.2f} s (cache empty: compiling); first "
+        f"batch step {w['batch_cached_s']:.2f} s / {w['batch_compile_s']:.2f} s")
     log("(a) interactive step, frames per second (median of repeats), 60 fps = real time")
     for c in characters:
         r = bench_step(c, step_frames, step_repeats)
         result["step"][c] = r
-        log(f"    {c:12s} pose {r['pose']['steps_per_s']:8.0f}/s "
+        log(f"    {c:12s} pose {r['pose']['steps_per_s']:7.0f}/s "
+            f"[{r['pose']['steps_per_cpu_s']:5.0f}] "
             f"({r['pose']['steps_per_s'] / 60:5.1f}x real time)   plan only "
-            f"{r['plan_only']['steps_per_s']:8.0f}/s "
-            f"(posing costs {r['plan_only']['steps_per_s'] / r['pose']['steps_per_s']:.2f}x)")
+            f"{r['plan_only']['steps_per_s']:7.0f}/s [{r['plan_only']['steps_per_cpu_s']:5.0f}]")
+    if "horse" in characters:
+        r = bench_horse_data(step_frames, step_repeats)
+        if r is not None:
+            result["step"]["horse_data"] = r
+            log(f"    {'horse (data)':12s} pose {r['steps_per_s']:7.0f}/s "
+                f"[{r['steps_per_cpu_s']:5.0f}] ({r['steps_per_s'] / 60:5.1f}x real time)")
     log(f"(b) offline {CLIP_SECONDS:g} s clip at {CLIP_FPS:g} fps (simulate), seconds")
     clip = None
     sim_chars = characters[:1] if quick else characters
@@ -261,22 +402,28 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
             r, motion = bench_simulate(c, sim_repeats)
         clip = clip or motion
         result["simulate"][c] = r
-        log(f"    {c:12s} {r['seconds']:7.2f} s for {r['frames']} frames "
+        cpu = f" [{r['cpu_seconds']:.2f}]" if "cpu_seconds" in r else ""
+        log(f"    {c:12s} {r['seconds']:7.2f} s{cpu} for {r['frames']} frames "
             f"({r['real_time_factor']:.0f}x real time)")
     ns = [n for n in (1, 10, 100, 1000, 10000) if n <= max_n]
     if quick:
         ns = [n for n in ns if n <= 100]
-    log("(c) N characters stepped together (leopard, posed), character-frames per second")
+    log(f"(c) N characters stepped together ({characters[0]}, posed), "
+        "character-frames per second")
     if quick:
-        many = bench_many(characters[0], ns, frames_for=lambda n: max(2, min(20, 100 // n)),
-                          repeats_for=lambda n: 1)
+        many = bench_many(characters[0], ns, frames_for=lambda n: 20,
+                          repeats_for=lambda n: 1, loop_up_to=1)
     else:
-        many = bench_many(characters[0], ns, frames_for=lambda n: max(2, min(120, 1000 // n)),
-                          repeats_for=lambda n: 3 if n <= 10 else 1)
+        many = bench_many(characters[0], ns, frames_for=lambda n: max(10, min(120, 30000 // n)),
+                          repeats_for=lambda n: 3)
     result["many"] = many
     for n, r in many["by_n"].items():
+        loop = r.get("loop_character_frames_per_cpu_s")
         log(f"    N = {n:>5s}: {r['character_frames_per_s']:9.0f}/s "
-            f"({r['real_time_characters_at_60fps']:.1f} characters in real time)")
+            f"[{r['character_frames_per_cpu_s']:6.0f}] "
+            f"({r['real_time_characters_at_60fps']:.1f} characters in real time; "
+            f"peak {r['peak_step_bytes'] / 1e6:.0f} MB a step)"
+            + (f"; Python loop {loop:.0f}/s" if loop else ""))
     log(f"    method: {many['method']}")
     log(f"(d) export of the {clip.n_frames}-frame clip ({characters[0]}), seconds")
     result["export"] = bench_export(clip, 1 if quick else 3)

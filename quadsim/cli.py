@@ -8,7 +8,8 @@
     quadsim validate CONFIG
     quadsim metrics FILE.bvh [--json] [--start S] [--units m|cm]
     quadsim diagram CONFIG|FILE.bvh [--out FILE.png|.svg|.pdf] [--seconds S]
-    quadsim preview CONFIG|CHARACTER [--size WxH] [--camera follow|side|top]
+    quadsim preview CONFIG|CHARACTER [--mode procedural|data] [--size WxH]
+                    [--camera follow|side|top]
     quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
                    [--camera follow|side|top] [--fps N]
     quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
@@ -271,6 +272,18 @@ def cmd_preview(args) -> int:
         size = parse_size(args.size)
     except ValueError as e:
         raise InputError(f"`--size`: {e}") from None
+    source = args.source
+    if not source.endswith(".toml"):
+        from quadsim.skeleton.character import load_character
+
+        source = load_character(source)  # an identifier; InputError lists the known ones
+    elif not Path(source).is_file():
+        raise InputError(f"{source}: no such config file")
+    if args.mode is not None:
+        from quadsim.viz.live import check_mode
+        from quadsim.viz.preview import resolve_source
+
+        check_mode(resolve_source(source)[0], args.mode)
     if args.screenshot is None:
         from quadsim.viz.preview import display_available
 
@@ -279,21 +292,14 @@ def cmd_preview(args) -> int:
                              "WAYLAND_DISPLAY are unset); run it on a desktop, render a "
                              "video off screen with `quadsim render`, or take a picture "
                              "with `--screenshot FILE.png`")
-    source = args.source
-    if not source.endswith(".toml"):
-        from quadsim.skeleton.character import load_character
-
-        source = load_character(source)  # an identifier; InputError lists the known ones
-    elif not Path(source).is_file():
-        raise InputError(f"{source}: no such config file")
     from quadsim.viz.preview import Preview
 
     off = args.screenshot is not None
-    pv = Preview(source, size=size, off_screen=off, camera=args.camera,
+    pv = Preview(source, mode=args.mode, size=size, off_screen=off, camera=args.camera,
                  record_dir=args.record_dir)
     if not off:
-        print(f"{PROG}: preview of {pv.character.name}: H for help, Q to quit",
-              file=sys.stderr)
+        print(f"{PROG}: preview of {pv.character.name} ({pv.mode} mode): H for help, "
+              "Q to quit", file=sys.stderr)
         pv.run()
         if pv.last_recording is not None:
             print(f"last recording: {pv.last_recording}")
@@ -307,8 +313,8 @@ def cmd_preview(args) -> int:
     shot.parent.mkdir(parents=True, exist_ok=True)
     pv.screenshot(shot)
     pv.close()
-    print(f"wrote {shot}: {pv.character.id} after {seconds:g} s, gait {pv.gait}, "
-          f"{pv.speed:.2f} m/s")
+    print(f"wrote {shot}: {pv.character.id} ({pv.mode} mode) after {seconds:g} s, "
+          f"gait {pv.gait}, {pv.speed:.2f} m/s")
     return 0
 
 
@@ -419,11 +425,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     pr = sub.add_parser("preview", help="steer a character live in a window",
                         description="Open an interactive pyvista window: Up/Down speed, "
-                        "Left/Right turn, 1-9 gait (0 automatic), Space leap request, "
+                        "Left/Right turn, 1-9 gait (0 automatic), Space leap (data mode), "
                         "P pause, R record to BVH, H help, Q quit. A config's commands play "
-                        "until the first steering key.")
+                        "until the first steering key. A config's `mode` picks the "
+                        "controller; --mode overrides it.")
     pr.add_argument("source", metavar="CONFIG|CHARACTER",
                     help="a run configuration (TOML) or a character identifier")
+    pr.add_argument("--mode", choices=("procedural", "data"),
+                    help="controller: procedural, or data (the clip database of a character "
+                    "that has one: the horse); default the config's mode, else procedural")
     pr.add_argument("--size", default="960x640", metavar="WxH", help="window size (960x640)")
     pr.add_argument("--camera", choices=("follow", "side", "top"), default="follow")
     pr.add_argument("--record-dir", default="out", metavar="DIR",

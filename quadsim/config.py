@@ -18,6 +18,7 @@ frame rate, and what it is asked to do over time. Example::
     gait = "walk"              # optional; omitted = chosen by speed
     turn_rate_deg_s = 0.0      # optional, positive turns left; or heading_deg
     leap = false               # optional
+    slope_deg = 0.0            # optional, data mode: ground slope ahead, climbing positive
 
     [[command]]
     at = 6.0
@@ -33,6 +34,8 @@ Each ``[[command]]`` holds until the next one starts. Rules:
   ``"gallop"`` means ``"transverse_gallop"``.
 - ``turn_rate_deg_s`` (deg/s, magnitude at most 720) or ``heading_deg``
   (deg about +Y, 0 faces +Z, positive left, magnitude at most 360), not both.
+- ``slope_deg`` (deg, magnitude at most 20; data mode): the ground ahead
+  rises (positive) or falls along the heading from this command on.
 - A relative character path is taken from the config file's folder.
 
 Unknown keys are errors. Every error is a :class:`quadsim.errors.InputError`
@@ -64,6 +67,8 @@ FPS_RANGE = (1.0, 1000.0)
 MAX_DURATION = 3600.0
 #: Largest turn rate magnitude (deg/s).
 MAX_TURN_RATE_DEG_S = 720.0
+#: Largest ground slope magnitude (deg), data mode.
+MAX_SLOPE_DEG = 20.0
 #: Largest heading magnitude (deg).
 MAX_HEADING_DEG = 360.0
 #: Top speed allowed, as a multiple of the fastest gait's top speed.
@@ -75,7 +80,7 @@ UNITS = ("m", "cm")
 
 _TOP_KEYS = ("description", "character", "duration", "fps", "seed", "mode", "units", "command")
 _COMMAND_KEYS = ("at", "speed", "speed_kmh", "speed_mph", "gait", "turn_rate_deg_s",
-                 "heading_deg", "leap")
+                 "heading_deg", "leap", "slope_deg")
 _SPEED_KEYS = {"speed": 1.0, "speed_kmh": KMH, "speed_mph": MPH}
 
 
@@ -252,11 +257,22 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
         leap = table.get("leap", False)
         if not isinstance(leap, bool):
             raise InputError(f"{src}: `{key}.leap` = {leap!r}; allowed: true or false")
-        commands.append(constant_command(
+        cmd = constant_command(
             character, speed=speed, gait=table.get("gait"),
             turn_rate_deg_s=turn, heading_deg=heading, leap=leap,
             label=lambda name, key=key: f"{src}: `{key}.{name}`",
-            speed_key=given[0] if given else "speed"))
+            speed_key=given[0] if given else "speed")
+        if "slope_deg" in table:
+            sl = _number(table["slope_deg"], f"{src}: `{key}.slope_deg`")
+            if abs(sl) > MAX_SLOPE_DEG:
+                raise InputError(f"{src}: `{key}.slope_deg` = {sl:g} deg is out of range; "
+                                 f"allowed -{MAX_SLOPE_DEG:g} to {MAX_SLOPE_DEG:g} deg")
+            if sl != 0.0 and mode != "data":
+                raise InputError(f"{src}: `{key}.slope_deg` = {sl:g} deg needs `mode` = "
+                                 "'data' (the procedural mode walks on flat ground); "
+                                 "remove it or set mode = \"data\"")
+            cmd = replace(cmd, slope=math.radians(sl))
+        commands.append(cmd)
         times.append(at)
 
     return RunConfig(character=character_ref, duration=duration, fps=fps, seed=seed,

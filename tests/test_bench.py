@@ -16,6 +16,7 @@ def test_bench_quick_writes_json(tmp_path, capsys):
     assert r["simulate"]["leopard"]["seconds"] > 0
     assert set(r["many"]["by_n"]) == {"1"} and r["many"]["method"]
     assert r["export"]["bvh"]["bytes"] > 0 and r["export"]["glb"]["bytes"] > 0
+    assert r["warm_up"]["compile_s"] > 0 and r["warm_up"]["cached_s"] > 0
     assert "frames per second" in capsys.readouterr().out
 
 

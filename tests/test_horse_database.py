@@ -12,22 +12,11 @@ from quadsim.horse.database import (
     CLIP_GAITS,
     cut_cycles,
     load_database,
-    load_default_database,
     looped,
     pose_distance_deg,
 )
-from quadsim.skeleton.character import load_character
 from quadsim.skeleton.motion import Motion
 
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return load_default_database(horse)
 
 
 def test_default_database_has_the_seed_gaits(db):

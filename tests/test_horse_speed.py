@@ -5,9 +5,8 @@ import pytest
 
 from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
 from quadsim.errors import InputError
-from quadsim.horse.database import load_default_database, looped
+from quadsim.horse.database import looped
 from quadsim.horse.speed import HOYT, MPH, clip_contact_time, contact_time, expand
-from quadsim.skeleton.character import load_character
 
 #: three speeds (m/s) across each gait's range; the gallop stays within the
 #: reach of its single clip (11 m/s) -- see the speed module's notes
@@ -20,15 +19,6 @@ SPEEDS = {
     "gallop": (9.0, 10.5, 12.0),
 }
 
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return load_default_database(horse)
 
 
 def test_table_1_speed_unit_is_mph():

@@ -9,7 +9,7 @@ import pytest
 from quadsim.cli import main
 from quadsim.io.bvh import read_bvh
 from quadsim.viz.diagram import footfall_data, phase_distance
-from quadsim.viz.preview import HELP, Preview
+from quadsim.viz.preview import HELP, LEAP_HELP, Preview
 
 REPO = Path(__file__).resolve().parents[1]
 DT = 1.0 / 60.0
@@ -156,11 +156,12 @@ def test_pause_freezes_the_character(preview):
 
 
 def test_leap_request_is_stored_and_passed_on(preview):
-    assert "horse" in HELP and "coming" in HELP
+    assert "coming" not in HELP and "coming" not in LEAP_HELP["procedural"]
+    assert "--mode data" in LEAP_HELP["procedural"]
     assert preview.on_key("space")
     assert preview.leap_requested
     assert preview.command().leap
-    assert "horse" in preview.message
+    assert "horse" in preview.message and "--mode data" in preview.message
     preview.update(DT)
     assert not preview.leap_requested
 
@@ -214,3 +215,196 @@ def test_cli_preview_screenshot(tmp_path, monkeypatch, capsys):
     assert main(["preview", "no_such_animal", "--screenshot", "x.png"]) == 2
     assert "unknown character" in capsys.readouterr().err
     assert main(["preview", "leopard", "--size", "big"]) == 2
+
+
+# ------------------------------------------------------------- data mode
+def _track(p, seconds, log):
+    """Step ``seconds`` one controller step per update, logging joint positions and labels."""
+    for _ in range(round(seconds / DT)):
+        assert p.update(DT) == 1
+        log.append((p.world_positions, p.gait))
+
+
+def _ground_speed(log, seconds):
+    """Mean horizontal root speed (m/s) over the last ``seconds`` of the log."""
+    n = round(seconds / DT)
+    d = log[-1][0][0] - log[-1 - n][0][0]
+    return math.hypot(d[0], d[2]) / seconds
+
+
+def _travel_heading(log, seconds):
+    """Direction of the root's travel (rad, 0 along +Z, positive left) over the last seconds."""
+    n = round(seconds / DT)
+    d = log[-1][0][0] - log[-1 - n][0][0]
+    return math.atan2(d[0], d[2])
+
+
+@pytest.fixture
+def horse_data(tmp_path):
+    p = Preview("horse", mode="data", off_screen=True, size=(160, 120),
+                record_dir=tmp_path / "rec")
+    yield p
+    p.close()
+
+
+def test_data_mode_steps_the_clip_controller(horse_data):
+    from quadsim.horse.controller import HorseDataController
+    from quadsim.viz.live import DataLive, LiveController
+
+    p = horse_data
+    assert p.mode == "data" and isinstance(p.live, DataLive)
+    assert isinstance(p.live, LiveController)
+    assert isinstance(p.controller, HorseDataController)
+    assert p.gait_order == ["walk", "amble", "trot", "rack", "canter", "gallop"]
+    # starts at a walk at the mean of the walk clips' speeds (1.30 and 1.71 m/s)
+    assert p.speed_command == pytest.approx(math.sqrt(1.3034 * 1.7085), rel=1e-3)
+    assert p.max_speed == pytest.approx(1.4 * 10.9983, rel=1e-3)
+    log = []
+    _track(p, 3.0, log)
+    assert p.steps == 180 and p.gait == "walk"
+    assert _ground_speed(log, 2.0) == pytest.approx(p.speed_command, rel=0.05)
+    assert p.speed == pytest.approx(_ground_speed(log, 2.0), rel=0.05)   # the HUD's speed
+    assert abs(log[-1][0][0][0]) < 0.01          # straight along +Z
+    text = p._text.GetText(2)
+    assert "(data)" in text and "gait walk" in text and "fps" in text
+
+
+def test_data_mode_keys_steer_the_measured_motion(horse_data):
+    """Gait, speed, heading keys, each measured from the joint positions."""
+    p = horse_data
+    log = []
+    _track(p, 2.0, log)
+    p.on_key("r")
+    assert p.on_key("3")                          # trot, at 3.87 m/s
+    assert p.gait_command == "trot"
+    assert p.speed_command == pytest.approx(math.sqrt(3.0009 * 4.9990), rel=1e-3)
+    _track(p, 5.0, log)
+    assert p.gait == "trot"
+    assert "walk->trot" in {g for _, g in log}
+    assert _ground_speed(log, 2.0) == pytest.approx(p.speed_command, rel=0.05)
+    # the recorded feet show the trot's footfalls: diagonal pairs together, half a stride apart
+    motion = p.recorded_motion()
+    steady = {s.label: s for s in footfall_data(motion).steady_segments(min_strides=2)}
+    assert np.all(phase_distance(steady["trot"].phase, p.gaits["trot"].phases) < 0.05)
+    # Up twice: 2 x 0.64 m/s faster, still a (held) trot
+    v0 = p.speed_command
+    p.on_key("Up")
+    p.on_key("Up")
+    assert p.speed_command == pytest.approx(v0 + 2 * p.speed_step)
+    assert p.speed_step == pytest.approx(0.64)
+    _track(p, 4.0, log)
+    assert p.gait == "trot"
+    assert _ground_speed(log, 2.0) == pytest.approx(p.speed_command, rel=0.05)
+    assert p.speed == pytest.approx(_ground_speed(log, 2.0), rel=0.05)
+    # a held trot tops out at its fastest clip's reach (1.4 x 5.0 m/s)
+    for _ in range(20):
+        p.on_key("Up")
+    assert p.speed_command == pytest.approx(1.4 * 4.9990, rel=1e-3)
+    assert "tops out" in p.message
+    p.on_key("Down")
+    p.on_key("Down")
+    p.on_key("Down")
+    # Left twice: travel turns to +30 degrees
+    assert p.on_key("Left") and p.on_key("Left")
+    assert p.heading_command == pytest.approx(math.radians(30.0))
+    _track(p, 4.0, log)
+    assert math.degrees(_travel_heading(log, 1.0)) == pytest.approx(30.0, abs=2.0)
+    assert math.degrees(p.heading) == pytest.approx(30.0, abs=0.5)
+    # 0: gaits by speed again; at 5.1 m/s that is the canter
+    v = p.speed_command
+    assert 5.0 < v < 5.3
+    p.on_key("0")
+    _track(p, 4.0, log)
+    assert p.gait == "canter"
+    assert _ground_speed(log, 1.5) == pytest.approx(v, rel=0.08)
+    assert p.recorded_frames == round(17.0 / DT)
+    path = p.stop_recording()
+    m = read_bvh(path)
+    assert len(m) == round(17.0 / DT)
+    # the file's last frame is the pose on screen
+    idx = m.skeleton.indices(p.character.skeleton.names)
+    np.testing.assert_allclose(m.world_positions()[-1][idx], p.world_positions, atol=1e-5)
+
+
+def test_data_mode_space_leaps(horse_data):
+    """Space: all four hooves leave the ground for over 0.3 s (a gallop's float is shorter)."""
+    p = horse_data
+    feet = p.character.skeleton.indices(p.character.foot_joints)
+    log = []
+    _track(p, 2.0, log)
+    assert p.on_key("space") and p.leap_requested
+    assert "coming" not in p.message and "leap" in p.message
+    _track(p, 9.0, log)
+    labels = [g for _, g in log]
+    assert "leap" in labels and labels[-1] == "walk"
+    # hooves off the ground: more than 3 cm up (a planted hoof is at 0)
+    hooves = np.array([P[feet, 1] for P, _ in log])
+    assert np.percentile(hooves, 5, axis=0) == pytest.approx(0.0, abs=0.005)
+    air = (hooves > 0.03).all(axis=1)
+    runs, start = [], None
+    for i, a in enumerate(np.append(air, False)):
+        if a and start is None:
+            start = i
+        elif not a and start is not None:
+            runs.append((start, i - start))
+            start = None
+    long = [(s, n) for s, n in runs if n * DT > 0.3]
+    assert len(long) == 1, runs
+    s, n = long[0]
+    assert 0.4 < n * DT < 0.7                    # the leap clip's 0.55 s flight
+    assert all(labels[k] == "leap" for k in range(s, s + n))
+    assert all(k * DT < 0.3 for _, k in runs if (_, k) != long[0])
+
+
+def test_data_config_ground_follows_the_slope(tmp_path):
+    """horse_data.toml climbs 8 degrees: the grid, the shadow and the camera follow."""
+    p = Preview(str(REPO / "configs" / "horse_data.toml"), off_screen=True, size=(160, 120),
+                record_dir=tmp_path)
+    try:
+        assert p.mode == "data" and p.gait == "stand" and p.live.ground is None
+        run(p, 13.5)
+        ground = p.live.ground
+        assert ground is not None and math.degrees(ground.slope) == pytest.approx(8.0)
+        scene = p.scene
+        # every grid point sits on the controller's ground
+        plane, _, grid, _ = scene._relief
+        off = np.array(scene.grid_actor.GetPosition())
+        pts = np.asarray(grid.points) + off
+        np.testing.assert_allclose(pts[:, 1], ground.height(pts[:, [0, 2]]), atol=1e-9)
+        assert np.ptp(pts[:, 1]) > 5.0            # a real slope across the 96 m grid
+        # the horse is up the slope, its hooves on it, and the camera looks at it there
+        P = p.world_positions
+        hooves = P[p.character.skeleton.indices(p.character.foot_joints)]
+        floor = ground.height(hooves[:, [0, 2]])
+        assert floor.min() > 0.5
+        assert (hooves[:, 1] - floor).min() > -0.02
+        focal = np.array(scene.plotter.renderer.GetActiveCamera().GetFocalPoint())
+        assert focal[1] == pytest.approx(scene._floor + 0.75 * scene.scale, abs=1e-6)
+        assert scene._floor > 0.5
+        assert "ground slope +8.0 deg" in p._text.GetText(2)
+    finally:
+        p.close()
+
+
+def test_cli_preview_data_mode(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["preview", "horse", "--mode", "data", "--screenshot", "shot.png",
+                 "--seconds", "1", "--size", "200x150"]) == 0
+    import matplotlib.image as mpimg
+
+    assert mpimg.imread(tmp_path / "shot.png").shape[:2] == (150, 200)
+    out = capsys.readouterr().out
+    assert "(data mode)" in out and "gait walk" in out
+
+
+def test_cli_preview_data_mode_needs_clips(monkeypatch, capsys):
+    # the mode is checked before the display
+    monkeypatch.delenv("DISPLAY", raising=False)
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    monkeypatch.setattr("sys.platform", "linux")
+    for argv in (["preview", "leopard", "--mode", "data"],
+                 ["preview", "leopard", "--mode", "data", "--screenshot", "x.png"]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert "quadsim: error: `--mode data`" in err and "'leopard' has no clip database" in err
+        assert "drop `--mode data`" in err and "Traceback" not in err

@@ -54,6 +54,7 @@ __all__ = [
     "foot_contacts", "foot_slide", "format_report", "ground_penetration", "motion_report",
     "penetration_depth", "phases", "report_from_positions", "root_speed",
     "stance_intervals", "stride_frequency", "stride_length", "stride_table",
+    "strides_to_pattern",
     "touchdown_times",
 ]
 
@@ -481,6 +482,54 @@ def _phases(td: list[np.ndarray]) -> np.ndarray:
         out[i] = (ang / (2 * np.pi)) % 1.0
     out[_LH] = 0.0
     return np.where(out > 1.0 - 1e-9, 0.0, out)
+
+
+def strides_to_pattern(contacts, fps, want, *, feet=None, start: float = 0.0,
+                       tol: float = 0.06, tolerance=None) -> int | None:
+    """Left-hind strides from ``start`` until the footfall pattern ``want`` holds for good.
+
+    Each whole left-hind (LH) stride ``[t0, t1)`` that begins at or after
+    ``start`` matches when every other foot touches down inside it at phase
+    ``(t - t0) / (t1 - t0)`` within ``tol`` (a fraction of the stride, taken
+    round the circle) of ``want`` (its first touchdown in the stride counts).
+
+    Parameters
+    ----------
+    contacts : array-like of bool, shape (T, 4)
+    fps : float
+    want : array-like, shape (4,)
+        Wanted touchdown phase of each foot after LH, leg order LF, RF, LH, RH.
+    feet : array-like, shape (T, 4, 3), optional
+        Refines the touchdown times (see :func:`stance_intervals`).
+    start : float
+        Time (s) from which strides are counted.
+    tol : float
+        Largest phase error (fraction of a stride).
+
+    Returns
+    -------
+    int or None
+        The number of strides from ``start`` before the first of the
+        unbroken run of matching strides that ends with the last whole stride;
+        None when the last stride does not match (or there is none).
+    """
+    td = touchdown_times(contacts, fps, feet, tolerance=tolerance)
+    want = np.asarray(want, dtype=float)
+    ref = td[_LH][td[_LH] >= start - 1e-9]
+    ok = []
+    for a, b in zip(ref[:-1], ref[1:]):
+        err = 0.0
+        for i in range(4):
+            if i == _LH:
+                continue
+            x = td[i][(td[i] >= a) & (td[i] < b)]
+            err = max(err, abs(((x[0] - a) / (b - a) - want[i] + 0.5) % 1.0 - 0.5)
+                      if len(x) else 1.0)
+        ok.append(err < tol)
+    if not ok or not ok[-1]:
+        return None
+    bad = [k for k, v in enumerate(ok) if not v]
+    return bad[-1] + 1 if bad else 0
 
 
 def stride_frequency(contacts, fps, feet=None, *, tolerance=None) -> float:

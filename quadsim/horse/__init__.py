@@ -4,18 +4,21 @@ Modules: :mod:`.database` (looped BVH clips and their manifest; the
 :func:`~.database.cut_cycles` builder), :mod:`.legs` (two-bone IK that keeps
 the lower leg; holding stance feet), :mod:`.speed` (Hoyt's contact-time law,
 speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
+:mod:`.root` (foot phases and the root from the landing feet),
+:mod:`.turning` (the head-first lead into turns and slopes, planted feet),
+:mod:`.slope` (the ground: flat, or planar ramps along the heading),
 :mod:`.controller` (:class:`~.controller.HorseDataController`, the interactive
 data-driven horse, and :func:`~.controller.simulate`, used by ``mode = "data"``).
 """
 
 from .database import (
-                       Clip,
-                       ClipDatabase,
-                       Cycle,
-                       clip_folder,
-                       cut_cycles,
-                       load_database,
-                       load_default_database,
+    Clip,
+    ClipDatabase,
+    Cycle,
+    clip_folder,
+    cut_cycles,
+    load_database,
+    load_default_database,
 )
 from .controller import HorseDataController
 from .controller import simulate as simulate_data
@@ -23,22 +26,22 @@ from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
 from .timewarp import blend_frames, leg_times, synchronous_transition, transition_motion
 
 __all__ = [
-                       "HOYT",
-                       "HorseDataController",
-                       "SPEED_UNIT",
-                       "Clip",
-                       "ClipDatabase",
-                       "Cycle",
-                       "blend_frames",
-                       "clip_folder",
-                       "contact_time",
-                       "cut_cycles",
-                       "expand",
-                       "leg_times",
-                       "load_database",
-                       "load_default_database",
-                       "simulate_data",
-                       "step_length",
-                       "synchronous_transition",
-                       "transition_motion",
+    "HOYT",
+    "HorseDataController",
+    "SPEED_UNIT",
+    "Clip",
+    "ClipDatabase",
+    "Cycle",
+    "blend_frames",
+    "clip_folder",
+    "contact_time",
+    "cut_cycles",
+    "expand",
+    "leg_times",
+    "load_database",
+    "load_default_database",
+    "simulate_data",
+    "step_length",
+    "synchronous_transition",
+    "transition_motion",
 ]

@@ -18,32 +18,98 @@
   feet, equation 11) from the current phase; the transition is computed once
   when it starts and played through, then the new clip continues from the
   transition's end posture.
-* **Heading.** ``turn_rate`` is integrated (or the heading steered towards
-  ``command.heading`` at up to :data:`MAX_STEER_RATE`), and the whole body is
-  yawed about +Y: the root's orientation and its travel turn together (a
-  simple body yaw; the seed's head-to-root turning is not done).
+* **Standing.** Speed 0 slows to a walk at :data:`STOP_SPEED`, then over
+  :data:`STAND_TIME` the walk's generic time runs down to a stop while the pose
+  blends into the character's rest pose (standing square); the feet on the
+  ground stay planted and a foot in the air sets down, so the horse ends with
+  all four feet still on the ground. A speed sets it off again: the rest pose
+  blends back into the wanted gait's clip. It does not turn while standing.
 * **Leap.** ``command.leap`` (once per command) moves to the leap clip's start
   gait at the leap clip's speed, starts the leap clip when the reference hind
-  foot lands, plays it once and returns to the gait the command asks for.
-* Slopes (``command.slope``) are ignored.
+  foot lands (the leap clip was keyed from that gait's clip, so its first
+  frame is that posture: the blend in is seamless), plays it once and goes on
+  in the start gait from the leap's last landing (the foot that landed last
+  continues from its touchdown in the gait), then to the gait the command asks
+  for by the usual transition.
+
+Contact times. The controller plays :func:`~quadsim.horse.speed.expand`'s
+clips as they are (the feet are planted through the clip's own contacts), so
+a foot's contact time is the expanded clip's: within 10 % of ``a v^b`` for the
+walk, trot, rack and canter (their clips are baked to step as the law says at
+their own speeds, so expansion moves a foot by at most about 6 %), and of the
+clip-anchored ``Tc0 (v/v0)^b`` for the amble and gallop, whose absolute law
+asks for strides no horse leg of this size reaches (see
+:mod:`quadsim.horse.speed`).
+
+World placement (every mode, every frame; :mod:`quadsim.horse.turning`):
+
+* **Heading.** The root's heading turns at ``turn_rate`` or towards
+  ``command.heading`` (gain :data:`STEER_GAIN`), at most the character's
+  ``max_turn_rate_deg_s``, :data:`LATERAL_ACCEL` / speed, and
+  :data:`TURN_PER_STANCE` / contact time (a planted leg twists by at most that
+  much in one contact: slow gaits turn slowly, as the seed's smaller turning
+  angle at low speed), the rate changing by at most :data:`TURN_ACCEL`. Turning
+  goes on through transitions and leaps. The heading change turns the body
+  about its middle; the clip's travel goes along the new heading.
+* **Head to root.** The body joints lead the root towards the turn (and
+  towards the slope ahead): the head first and most, the neck, then the back
+  (:class:`~quadsim.horse.turning.BodyLead`), as the seed's head-down turning.
+* **Slopes.** ``command.slope`` (rad, climbing positive) starts a planar ramp
+  :data:`RAMP_AHEAD` m ahead of the shoulders along the heading whenever it
+  changes (:class:`~quadsim.horse.slope.Ground`, a height field). The body
+  pitches with the ground between the hips and the shoulders (time constant
+  :data:`PITCH_TAU`) -- the seed's "turning in the vertical" -- and is lifted
+  so the clip's feet meet the slope.
+* **Planted feet.** A foot on the ground (the clip's contact, or at the clip's
+  ground) is held where it struck, on the ground; between two clip frames a foot
+  counts as down only if it is down on both (the clip's own foot is lifting or
+  landing there). The root moves by the mean offset of the planted feet the
+  clip holds within :data:`ROOT_BAND` of its ground (equation 11 in the world,
+  at most :data:`SHIFT_SPEED`), the legs reach the plants by two-bone IK, and when a
+  planted foot is beyond its leg's reach the body is lowered a little
+  (:data:`REACH`, recovering over :data:`SAG_TAU`). A lifted foot's offset from
+  the clip (the IK's correction on its last planted frame) fades over its first
+  :data:`~quadsim.horse.turning.SWING_FADE` s of swing, and a swing foot keeps
+  the clip's height above the ground (high up over ground rising above the
+  body's plane it follows the pose). Where the clip's own feet stay put (a
+  steady gait, straight on), the legs thus replay the clip's rotations: no
+  joint turns faster in a frame than in the clip (``tests/test_horse_smoothness.py``).
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 
 from ..analysis.metrics import foot_contacts
 from ..errors import InputError
-from ..kinematics.rotations import matrices_from_quaternions, quaternion_multiply
+from ..kinematics.rotations import (
+    matrices_about_axis,
+    matrices_from_quaternions,
+    quaternion_slerp,
+    quaternions_from_matrices,
+)
 from ..locomotion.commands import Command, Script
+from ..locomotion.controller import QuadsimClampWarning
 from ..skeleton.character import Character
+from ..skeleton.fk import forward_kinematics
 from ..skeleton.motion import Motion
 from .database import ClipDatabase, load_default_database, sample_motion
 from .root import FLIGHT, clip_stance_cycles, in_stance
+from .slope import Ground
 from .speed import HOYT, expand
 from .timewarp import REFERENCE, leg_times, sample_cycle, transition_motion
+from .turning import (
+    GROUND_BAND,
+    LOOK_AHEAD,
+    MAX_YAW_LEAD,
+    BodyLead,
+    FootPlanter,
+    apply_body_lead,
+    place_feet_pose,
+)
 
 #: Gaits chosen by speed, slowest first (amble and rack only on request).
 AUTO_GAITS = ("walk", "trot", "canter", "gallop")
@@ -53,14 +119,58 @@ HYSTERESIS = 0.06
 SPEED_STEP = 0.02
 #: Gaits expanded relative to their clip (the absolute law is out of the leg's reach).
 CLIP_ANCHORED = ("amble", "gallop")
-#: Fastest steering towards a commanded heading (rad/s).
-MAX_STEER_RATE = math.radians(90.0)
 #: Lowest and highest speed played, as multiples of the gait's slowest / fastest clip.
 SPEED_REACH = (0.6, 1.4)
+#: Turn rate limit (rad/s) when the character sets none.
+MAX_TURN_RATE = math.radians(60.0)
+#: Sideways acceleration a turn may ask for (m/s^2): the turn rate is at most this / speed.
+LATERAL_ACCEL = 0.5 * 9.81
+#: Largest turn of the body during one contact (rad): the planted legs twist by this much
+#: at most, so the turn rate is at most this / contact time (slow gaits turn slowly).
+TURN_PER_STANCE = math.radians(15.0)
+#: A foot lifted for at most this long (s) between two contacts in a transition stays planted.
+MIN_AIR = 0.05
+#: Fastest the root is moved onto the planted feet (m/s), over the clip's own travel.
+SHIFT_SPEED = 1.0
+#: A planted foot at most this high (m) above the clip's ground moves the root (equation 11).
+ROOT_BAND = 0.01
+#: Fraction of a leg's two-bone reach a planted foot may use before the body is lowered.
+REACH = 0.995
+#: Time constant (s) of the body rising again after it was lowered.
+SAG_TAU = 0.25
+#: Steering gain towards a commanded heading (1/s).
+STEER_GAIN = 2.5
+#: Largest change of turn rate (rad/s^2).
+TURN_ACCEL = math.radians(240.0)
+#: Time constant (s) of the body's pitch following the ground.
+PITCH_TAU = 0.12
+#: How far ahead of the shoulders (m) the head looks for the slope.
+LOOK_DISTANCE = 1.0
+#: How far ahead of the shoulders (m) a new slope starts (beyond the longest reach of a fore foot).
+RAMP_AHEAD = 1.0
+#: Walking speed (m/s) from which the horse stops, and the time (s) to settle into the stance.
+STOP_SPEED = 1.0
+STAND_TIME = 0.8
+#: Gait label of the standstill.
+STAND = "stand"
 
 
-def _yaw_quat(yaw: float) -> np.ndarray:
-    return np.array([math.cos(yaw / 2), 0.0, math.sin(yaw / 2), 0.0])
+def _fill_gaps(stance: np.ndarray, n: int) -> np.ndarray:
+    """``stance`` (T, 4) bool with each foot's gaps of at most ``n`` frames between contacts
+    closed (a transition's per-leg switch of clips can lift a foot for a frame or two)."""
+    out = np.array(stance, dtype=bool)
+    for j in range(out.shape[1]):
+        d = np.diff(np.concatenate([[1], out[:, j].astype(np.int8), [1]]))
+        starts, ends = np.nonzero(d == -1)[0], np.nonzero(d == 1)[0]
+        for a, b in zip(starts, ends):
+            if 0 < a and b < len(out) and b - a <= n:
+                out[a:b, j] = True
+    return out
+
+
+def _smooth(x: float) -> float:
+    x = min(max(x, 0.0), 1.0)
+    return x * x * (3.0 - 2.0 * x)
 
 
 def _rotate(yaw: float, v: np.ndarray) -> np.ndarray:
@@ -111,6 +221,49 @@ class HorseDataController:
         self._leap_pending = False
         self._leap_cmd = None
         self._tau = 0.0
+        # world placement (heading, slope, body lead, planted feet)
+        self.omega = 0.0            # turn rate (rad/s)
+        self._turn_warned = False
+        self._yaw_prev = 0.0
+        self._yaw_lead = 0.0
+        self.pitch = 0.0            # body pitch, nose up (rad)
+        self.stand_w = 0.0          # 0 moving .. 1 standing square
+        self._stand_goal_last = 0.0
+        self.ground = Ground()
+        self._slope = 0.0
+        self.lead = BodyLead(character)
+        self.planter = FootPlanter()
+        self._feet = np.array([leg.foot for leg in character.legs])
+        self._pair = (np.array([leg.chain[leg.ik_start] for leg in character.legs]),
+                      np.array([leg.chain[leg.ik_start + 1] for leg in character.legs]))
+        self.sag = 0.0              # how far the body is lowered for its planted legs (m)
+        rest = character.skeleton.rest_positions
+        tops = np.array([rest[leg.chain[leg.ik_start], 2] for leg in character.legs]) - rest[0, 2]
+        self._girdles = (float(tops[2:].mean()), float(tops[:2].mean()))
+        self._centre = 0.5 * sum(self._girdles)
+        self._rest_height = float(rest[0, 1] - rest[self._feet, 1].mean())
+        self.max_turn_rate = math.radians(float(
+            character.locomotion.get("max_turn_rate_deg_s", math.degrees(MAX_TURN_RATE))))
+
+    # ------------------------------------------------------------ state
+    @property
+    def speed(self) -> float:
+        """The speed being played (m/s), 0 before the first step.
+
+        The current clip's speed; in a gait transition it moves from the old
+        clip's to the new one's with the transition's progress, in a leap it is
+        the leap clip's; it slows to 0 as the horse settles into standing square.
+        """
+        if self.clip is None:
+            return 0.0
+        v = float(self.clip.speed)
+        if self.mode == "transition":
+            tr = self._tr
+            done = self._tau * tr["fps"] / max(tr["f_end"] - tr["f0"], 1e-9)
+            v += (float(tr["clip2"].speed) - v) * _smooth(done)
+        elif self.mode == "leap":
+            v = float(self.leap_clip.speed)
+        return v * (1.0 - _smooth(self.stand_w))
 
     # ------------------------------------------------------------ helpers
     def _gait_for(self, speed: float) -> str:
@@ -140,6 +293,14 @@ class HorseDataController:
             anchor = "clip" if gait in CLIP_ANCHORED or gait not in HOYT else "law"
             self._cache[key] = expand(base, self.character, v, anchor=anchor)
         return self._cache[key]
+
+    def _stance_time(self, clip) -> float:
+        """Mean contact time of a clip's feet (s)."""
+        key = ("tc", clip.name)
+        if key not in self._stance:
+            d = np.concatenate([(s[:, 1] - s[:, 0]) % 1.0 for s in self._stance_of(clip)])
+            self._stance[key] = float(max(d.mean(), 1e-3) * clip.period)
+        return self._stance[key]
 
     def _stance_of(self, clip):
         if clip.name not in self._stance:
@@ -172,33 +333,90 @@ class HorseDataController:
                 raise InputError(f"gait {command.gait!r} has no clips in the database; "
                                  f"allowed: {', '.join(g for g in self.db.gaits if g != 'leap')}")
             if speed <= 0:
-                cs = self.db.by_gait(gait)
-                speed = float(np.exp(np.mean([np.log(c.speed) for c in cs])))
+                return STAND, 0.0
             return gait, speed
-        speed = max(speed, 1e-3)
+        if speed <= 0:
+            return STAND, 0.0
         return self._gait_for(speed), speed
+
+    def _steer(self, command: Command, dt: float) -> None:
+        """Turn rate and heading: towards ``command.heading`` or at ``command.turn_rate``.
+
+        The rate is limited to the character's ``max_turn_rate_deg_s`` and to
+        :data:`LATERAL_ACCEL` / speed, and changes by at most :data:`TURN_ACCEL`.
+        A horse standing square does not turn (its planted legs would twist).
+        """
+        v = self.clip.speed * (1.0 - _smooth(self.stand_w)) if self.clip is not None \
+            else command.speed
+        wmax = min(self.max_turn_rate, LATERAL_ACCEL / max(v, 1e-6))
+        if self.clip is not None:
+            tc = self._stance_time(self.clip)
+            if self.mode == "transition":
+                tc = max(tc, self._stance_time(self._tr["clip2"]))
+            wmax = min(wmax, TURN_PER_STANCE / tc)
+        wmax *= 1.0 - _smooth(self.stand_w)         # no turning while standing square
+        lead = 0.0
+        if command.heading is not None:
+            err = (command.heading - self.yaw + math.pi) % (2 * math.pi) - math.pi
+            want = STEER_GAIN * err
+            lead = err
+        elif command.turn_rate is not None:
+            want = command.turn_rate
+            if abs(want) > wmax + 1e-9 and self.stand_w == 0.0 and not self._turn_warned:
+                self._turn_warned = True
+                warnings.warn(
+                    f"turn rate {math.degrees(abs(want)):.1f} deg/s is beyond the horse's "
+                    f"maximum at {v:.2f} m/s ({math.degrees(wmax):.1f} deg/s, from "
+                    "max_turn_rate_deg_s, sideways acceleration and the contact time); "
+                    "clamped", QuadsimClampWarning, stacklevel=4)
+        else:
+            want = 0.0
+        want = float(np.clip(want, -wmax, wmax))
+        self.omega += float(np.clip(want - self.omega, -TURN_ACCEL * dt, TURN_ACCEL * dt))
+        if command.heading is not None and abs(self.omega * dt) > abs(lead) \
+                and self.omega * lead >= 0:
+            self.omega = lead / dt
+        self.yaw += self.omega * dt
+        self._yaw_lead = lead + self.omega * LOOK_AHEAD
+
+    def _slope_command(self, command: Command) -> None:
+        """Start a ramp ahead of the fore feet when the commanded slope changes."""
+        if command.slope != self._slope:
+            fwd = np.array([math.sin(self.yaw), math.cos(self.yaw)])
+            base = np.zeros(2) if self.position is None else self.position[[0, 2]]
+            self.ground.add_ramp(base + fwd * (self._girdles[1] + RAMP_AHEAD), self.yaw,
+                                 command.slope)
+            self._slope = command.slope
 
     # ------------------------------------------------------------ stepping
     def step(self, command: Command, dt: float | None = None) -> dict:
         """Advance one frame; returns the pose and labels.
 
+        Parameters
+        ----------
+        command : Command
+            ``speed`` (m/s; 0 stands still), ``turn_rate`` (rad/s) or
+            ``heading`` (rad), ``gait``, ``leap`` (one leap per command object),
+            ``slope`` (rad, climbing positive: a ramp starts just ahead of the
+            fore feet when it changes).
+        dt : float, optional
+            Time step (s), default the controller's.
+
         Returns
         -------
         dict with ``local_rotations`` (J, 3, 3), ``rotations`` (J, 4)
         quaternions, ``root`` (3,), ``positions`` (J, 3) world joint
-        positions, ``gait`` (label), ``contacts`` (4,) bool from the clip's
-        measured contacts, ``heading`` (rad), ``mode``.
+        positions (m), ``gait`` (label; ``"stand"`` standing still),
+        ``contacts`` (4,) bool (the clip's contacts the feet are held to),
+        ``heading`` and ``pitch`` (rad), ``ground`` (4,) ground height under
+        each foot (m), ``mode``.
         """
         dt = self.dt if dt is None else float(dt)
         if not dt > 0:
             raise InputError(f"dt must be > 0 s, got {dt!r}")
         self._last_dt = dt
-        # heading
-        if command.heading is not None:
-            err = (command.heading - self.yaw + math.pi) % (2 * math.pi) - math.pi
-            self.yaw += float(np.clip(err, -MAX_STEER_RATE * dt, MAX_STEER_RATE * dt))
-        elif command.turn_rate is not None:
-            self.yaw += command.turn_rate * dt
+        self._slope_command(command)
+        self._steer(command, dt)
         # leap request (once per command object)
         if (command.leap and command is not self._leap_cmd and self.leap_clip is not None
                 and self.mode != "leap"):
@@ -206,14 +424,34 @@ class HorseDataController:
             self._leap_pending = True
         gait, speed = self._target(command)
         first = self.clip is None
+        stand_goal = 0.0
+        if gait == STAND:
+            ready = (self.mode == "steady" and self.gait == "walk"
+                     and self.clip.speed <= STOP_SPEED * (1 + 2 * SPEED_STEP))
+            if first or self.stand_w > 0 or ready:
+                stand_goal = 1.0
+                gait, speed = ("walk", STOP_SPEED) if first else (self.gait, self.clip.speed)
+            else:
+                gait, speed = "walk", STOP_SPEED
+        self._stand_goal_last = stand_goal
         if first:
             self.gait = gait
             self.clip = self.expanded(gait, speed)
             self.phase = 0.0
-            local, _ = self._steady_local(self.clip, 0.0)
-            self.position = np.array([0.0, local[1], 0.0])
-            self._local_prev = local
+            self.stand_w = stand_goal
+            self._local_prev, _ = self._steady_local(self.clip, 0.0)
             return self._emit(*self._steady_pose(), first=True)
+        if (self.stand_w > 0 or stand_goal > 0) and self.mode == "steady":
+            if stand_goal == 0.0 and self.stand_w >= 1.0 and (
+                    gait != self.gait or self.expanded(gait, speed) is not self.clip):
+                # standing square: set off straight into the wanted gait
+                new = self.expanded(gait, speed)
+                self.gait, self.clip = gait, new
+                self.phase = 0.0
+                self._local_prev, _ = self._steady_local(new, 0.0)
+            gait, speed = self.gait, self.clip.speed
+            self.stand_w = float(np.clip(self.stand_w + np.clip(
+                stand_goal - self.stand_w, -dt / STAND_TIME, dt / STAND_TIME), 0.0, 1.0))
         if self.mode == "steady":
             if gait != self.gait:
                 self._start_transition(gait, speed)
@@ -227,8 +465,9 @@ class HorseDataController:
                         (old_local - self._local_prev)
         if self.mode == "steady":
             prev = self.phase
-            self.phase += dt / self.clip.period
-            if (self._leap_pending and self.gait == self.leap_clip.start_gait
+            self.phase += (1.0 - _smooth(self.stand_w)) * dt / self.clip.period
+            if (self._leap_pending and self.stand_w == 0.0
+                    and self.gait == self.leap_clip.start_gait
                     and abs(self.clip.speed / self.leap_clip.speed - 1) < 0.05):
                 x = self.clip.touchdown[REFERENCE] / self.clip.frames
                 if math.floor(self.phase - x) > math.floor(prev - x):
@@ -256,11 +495,14 @@ class HorseDataController:
         if f >= n - 1:
             g = self.expanded(self.leap_clip.start_gait, self.leap_clip.speed)
             end_local = self.leap_clip.motion.root_positions[n - 1]
-            td = self.leap_clip.touchdown[REFERENCE]
+            # continue the start gait from the leap's last landing: the foot that landed
+            # last in the leap is where it is in the gait at its own touchdown
+            j = int(np.argmax(self.leap_clip.touchdown))
+            td = self.leap_clip.touchdown[j]
             self.mode = "steady"
             self.gait = g.gait
             self.clip = g
-            ph0 = (g.touchdown[REFERENCE] + (n - 1 - td)) / g.frames
+            ph0 = (g.touchdown[j] + (n - 1 - td)) / g.frames
             self.phase = ph0 + (f - (n - 1)) / g.frames
             self._local_prev = self._steady_local(g, ph0)[0] - (end_local - self._local_prev)
             self._leap_pending = False
@@ -269,8 +511,42 @@ class HorseDataController:
 
     def _steady_pose(self):
         local, q = self._steady_local(self.clip, self.phase)
-        st = in_stance(self._stance_of(self.clip), np.full((1, 4), self.phase))[0]
-        return local, q, st, self.gait
+        st = self._steady_stance(self.clip, self.phase)
+        label = self.gait
+        if self.stand_w > 0:
+            s = _smooth(self.stand_w)
+            rest = np.zeros_like(q)
+            rest[:, 0] = 1.0
+            q = quaternion_slerp(q, rest, np.full(len(q), s))
+            local = np.array(local)
+            local[1] = local[1] * (1 - s) + self._rest_height * s
+            if self.stand_w >= 1.0:
+                st = np.ones(4, dtype=bool)
+                label = STAND
+            else:
+                label = (f"{self.gait}->{STAND}" if self._stand_goal_last
+                         else f"{STAND}->{self.gait}")
+        return local, q, st, label
+
+    def _steady_stance(self, clip, phase: float) -> np.ndarray:
+        """The feet (4,) bool the clip holds still at ``phase``.
+
+        A contact's measured ends fall between frames, but the pose between
+        two frames is interpolated: a foot there is still only when it is on
+        the ground on both frames. Played between the frames at either end of
+        a contact, the foot is already lifting (or still landing) and is left
+        to the clip -- held on its plant there, it would be pulled back up to
+        a fifth of a metre for a frame and the leg would snap.
+        """
+        stance = self._stance_of(clip)
+        st = in_stance(stance, np.full((1, 4), phase))[0]
+        f = phase * clip.frames
+        if f - math.floor(f) > 1e-9:
+            k = math.floor(f)
+            ends = in_stance(stance, np.array([[k / clip.frames] * 4,
+                                               [(k + 1) / clip.frames] * 4]))
+            st = st & ends.all(axis=0)
+        return st
 
     def _start_transition(self, gait: str, speed: float) -> None:
         clip1, clip2 = self.clip, self.expanded(gait, speed)
@@ -283,10 +559,15 @@ class HorseDataController:
         cur_local, _ = self._steady_local(clip1, self.phase)
         # continue from the current root: re-base the precomputed motion's root
         self._local_prev = m.root_positions[f0] - (cur_local - self._local_prev)
-        stance = m.extras["foot_phase"] != FLIGHT
+        # on the ground: the foot phase, or the transition's foot at the ground; a lift of a
+        # frame or two between two contacts (a leg switching clips) is no step
+        held = m.foot_positions()[..., 1] <= GROUND_BAND
+        stance = _fill_gaps((m.extras["foot_phase"] != FLIGHT) | held,
+                            max(1, round(MIN_AIR * m.fps)))
         # played through one cycle of M2 after the blend (root and feet settle)
         self._tr = {"motion": m, "f0": f0, "f_end": len(m) - 1, "fps": m.fps,
-                    "end": lt["end"] + (len(m) - 1 - f0 - lt["B"]) / clip2.frames, "clip2": clip2, "gait": gait, "stance": stance,
+                    "end": lt["end"] + (len(m) - 1 - f0 - lt["B"]) / clip2.frames,
+                    "clip2": clip2, "gait": gait, "stance": stance,
                     "label": f"{self.gait}->{gait}"}
         self._tau = 0.0
         self.mode = "transition"
@@ -312,29 +593,117 @@ class HorseDataController:
         return root[0], rot[0], st, "leap"
 
     def _emit(self, local, q, contacts, label, first=False) -> dict:
-        if not first:
+        """Place the clip-local pose in the world: heading, slope, body lead, planted feet, IK."""
+        dt = 0.0 if first else self._last_dt
+        local = np.array(local, dtype=float)
+        skel = self.character.skeleton
+        yaw, yaw0 = self.yaw, self._yaw_prev
+        self._yaw_prev = yaw
+        fwd0 = np.array([math.sin(yaw0), 0.0, math.cos(yaw0)])
+        fwd = np.array([math.sin(yaw), 0.0, math.cos(yaw)])
+        c = self._centre
+        if first:
+            self.position = np.zeros(3)
+        else:
             d = local - self._local_prev
-            d[1] = 0.0
-            self.position = self.position + _rotate(self.yaw, d)
-            self.position[1] = local[1]
-            self._local_prev = np.array(local, dtype=float)
-        self.time += 0.0 if first else self._last_dt
-        q = np.array(q, dtype=float)
-        q[0] = quaternion_multiply(_yaw_quat(self.yaw), q[0])
-        root = np.array(self.position, dtype=float)
-        pose = Motion(self.character.skeleton, 60.0, root[None], q[None])
-        return {"rotations": q, "local_rotations": matrices_from_quaternions(q),
-                "root": root, "positions": pose.world_positions()[0],
-                "gait": label, "contacts": np.array(contacts, dtype=bool),
-                "heading": self.yaw, "mode": self.mode}
+            # the heading change turns the body about its middle, then the clip's travel
+            self.position = self.position + (fwd0 - fwd) * c
+            travel = _rotate(yaw, np.array([d[0], 0.0, d[2]])) * math.cos(self.pitch)
+            self.position = self.position + travel
+        self._local_prev = local
+        # pitch towards the ground's slope between the hips and the shoulders
+        g = self.ground
+        hind, fore = self._girdles
+        p_xz = self.position[[0, 2]]
+        f_xz = fwd[[0, 2]]
+        gh, gf, ga = g.height(np.stack([p_xz + hind * f_xz, p_xz + fore * f_xz,
+                                        p_xz + (fore + LOOK_DISTANCE) * f_xz]))
+        target = math.atan2(gf - gh, fore - hind)
+        self.pitch = target if first else self.pitch + (target - self.pitch) * (
+            1.0 - math.exp(-dt / PITCH_TAU))
+        ahead = math.atan2(ga - gf, LOOK_DISTANCE)
+        self.lead.update(self._yaw_lead, ahead - self.pitch, dt)
+        if first:
+            self.lead.yaw[:] = self.lead.share * np.clip(self._yaw_lead, -MAX_YAW_LEAD,
+                                                         MAX_YAW_LEAD)
+        th = self.pitch
+        R_root = matrices_about_axis(1, yaw) @ matrices_about_axis(0, -th)
+        h = local[1]
+
+        def height(pos):
+            cx = pos[[0, 2]] + f_xz * c * math.cos(th)
+            return float(g.height(cx[None])[0]) + h / math.cos(th) - c * math.sin(th)
+
+        root = np.array([self.position[0], 0.0, self.position[2]])
+        root[1] = height(root)
+        L = matrices_from_quaternions(np.asarray(q, dtype=float))
+        L[0] = R_root @ L[0]
+        L = apply_body_lead(self.lead.chain, L, self.lead.yaw, self.lead.pitch, yaw)
+        W, P = forward_kinematics(skel, L, root)
+        feet = P[self._feet]
+        # the feet's height above the clip's ground, in the body's frame
+        clearance = (feet - root) @ R_root[:, 1] + h
+        contacts = np.asarray(contacts, dtype=bool)
+        held = clearance <= GROUND_BAND            # feet the clip itself holds on the ground
+        contacts = contacts | held
+        # the root follows the planted feet the clip itself holds down (eq. 11), within
+        # ROOT_BAND of its ground (a pitching body or a transition leaves a planted foot a few
+        # mm off it: left out, its leg would be stretched by the body's drift alone and snap
+        # back at lift-off); a foot the planter holds where the clip has lifted it higher
+        # does not drag the body
+        shift = self.planter.root_shift(contacts & (clearance <= ROOT_BAND), feet)
+        n = math.hypot(shift[0], shift[2])
+        if n > SHIFT_SPEED * dt:                    # the rest waits for the next frames
+            shift = shift * (SHIFT_SPEED * dt / n)
+        if shift.any():
+            moved = root + shift
+            moved[1] = height(moved)
+            shift = moved - root
+            root = moved
+            feet = feet + shift
+            self.position = np.array([root[0], 0.0, root[2]])
+        targets = self.planter.targets(contacts, feet, clearance, g, dt)
+        contacts = self.planter.contacts
+        # lower the body when a planted foot is beyond its leg's reach (twisted legs in a turn)
+        A, B = P[self._pair[0]] + shift, P[self._pair[1]] + shift
+        reach = (np.linalg.norm(A - B, axis=-1) + np.linalg.norm(feet - B, axis=-1)) * REACH
+        v = targets - A
+        vh2 = v[:, 0] ** 2 + v[:, 2] ** 2
+        need = -np.sqrt(np.maximum(reach ** 2 - vh2, 0.0)) - v[:, 1]
+        need = float(np.max(np.where(contacts & (np.linalg.norm(v, axis=-1) > reach), need, 0.0)))
+        self.sag = max(need, self.sag * math.exp(-dt / SAG_TAU))
+        down = np.array([0.0, self.sag, 0.0])
+        root = root - down
+        Lf = place_feet_pose(skel.parents, self._pair, self._feet, L, W, P + shift - down,
+                             targets)
+        rot = quaternions_from_matrices(Lf)
+        _, Pf = forward_kinematics(skel, Lf, root)
+        self.time += dt
+        return {"rotations": rot, "local_rotations": Lf, "root": root, "positions": Pf,
+                "gait": label, "contacts": contacts, "heading": yaw, "pitch": th,
+                "ground": g.height(Pf[self._feet][:, [0, 2]]), "mode": self.mode}
 
 
 def simulate(character: Character, script: Script | Command, duration: float, fps: float, *,
              database: ClipDatabase | None = None) -> Motion:
     """Run a script with the data-driven horse; one step per frame.
 
-    Returns a Motion of ``int(round(duration * fps))`` frames with contacts,
-    gait labels, foot joints and ``extras["heading"]`` (rad).
+    Parameters
+    ----------
+    character : Character
+    script : Script or Command
+    duration : float
+        Seconds (> 0).
+    fps : float
+        Frames per second (> 0).
+    database : ClipDatabase, optional
+
+    Returns
+    -------
+    Motion
+        ``int(round(duration * fps))`` frames with contacts, gait labels, foot
+        joints and ``extras``: ``"heading"`` (T,) and ``"pitch"`` (T,) (rad),
+        ``"ground"`` (T, 4) the ground height under each foot (m).
     """
     if isinstance(script, Command):
         script = Script.constant(script)
@@ -342,7 +711,7 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         raise InputError(f"duration and fps must be > 0, got {duration!r}, {fps!r}")
     n = int(round(duration * fps))
     ctl = HorseDataController(character, database, dt=1.0 / fps)
-    roots, rots, cons, gaits, heads = [], [], [], [], []
+    roots, rots, cons, gaits, heads, pitch, ground = [], [], [], [], [], [], []
     for i in range(n):
         out = ctl.step(script.command_at(i / fps))
         roots.append(out["root"])
@@ -350,10 +719,13 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         cons.append(out["contacts"])
         gaits.append(out["gait"])
         heads.append(out["heading"])
+        pitch.append(out["pitch"])
+        ground.append(out["ground"])
     return Motion(character.skeleton, fps, np.array(roots), np.array(rots),
                   contacts=np.array(cons), gaits=np.array(gaits, dtype=object),
                   foot_joints=character.foot_joints,
-                  extras={"heading": np.array(heads)})
+                  extras={"heading": np.array(heads), "pitch": np.array(pitch),
+                          "ground": np.array(ground)})
 
 
-__all__ = ["AUTO_GAITS", "HYSTERESIS", "HorseDataController", "simulate"]
+__all__ = ["AUTO_GAITS", "HYSTERESIS", "STAND", "HorseDataController", "simulate"]

@@ -3,8 +3,14 @@
 :func:`place_feet` turns each leg's two-bone pair (the character's IK joint
 and the joint below it) so that the foot joint reaches a target, leaving the
 joints above the pair and the bones below its middle joint as they were -- the
-clip's pastern and hoof angles survive the edit. :func:`pin_stance` uses it to
-hold every foot still, on the ground, through each of its contacts.
+clip's pastern and hoof angles survive the edit. The IK itself is
+:func:`two_bone`, batched over any leading axes (a clip's frames here, one
+pose's four legs in :func:`quadsim.horse.turning.place_feet_pose`).
+:func:`pin_stance` uses it to hold every foot still, on the ground, through
+each of its contacts: at the contact's middle (looped clips) or where the
+foot landed (edited motion such as a gait transition, the swing easing onto
+and off the held place, :func:`stance_targets`). :func:`reach_drop` says how
+far the root must come down for a held foot beyond its leg's reach.
 """
 
 from __future__ import annotations
@@ -16,6 +22,65 @@ from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 
 LATERAL = np.array([1.0, 0.0, 0.0])
+
+
+def two_bone(A: np.ndarray, B: np.ndarray, F: np.ndarray, W_parent: np.ndarray,
+             W_top: np.ndarray, W_mid: np.ndarray, targets: np.ndarray
+             ) -> tuple[np.ndarray, np.ndarray]:
+    """Analytic two-bone IK: local rotations of a pair's two joints putting the foot on a target.
+
+    The middle joint bends about the pair's plane normal until the top-to-foot
+    distance is the top-to-target distance (clamped to what the bones
+    reach), then the top joint swings the whole pair onto the target. The
+    bones below the middle joint keep their local angles. Every array has the
+    same leading axes (frames, legs, or both), so one call moves any batch.
+
+    Parameters
+    ----------
+    A, B, F : ndarray, shape (..., 3)
+        World positions of the top joint, the middle joint and the foot (m).
+    W_parent : ndarray, shape (..., 3, 3)
+        World rotation of the top joint's parent.
+    W_top, W_mid : ndarray, shape (..., 3, 3)
+        World rotations of the top and middle joints.
+    targets : ndarray, shape (..., 3)
+        Wanted foot positions (m); unreachable ones are approached as far as the pair allows.
+
+    Returns
+    -------
+    L_top, L_mid : ndarray, shape (..., 3, 3)
+        New local rotations of the top and middle joints.
+
+    Notes
+    -----
+    The pair bends about the normal of the top-middle-foot plane, on the side
+    the pose bends to. A pose passing through straight (a fore leg reaching
+    forward in its swing) flips that side: where the target then asks for
+    another bend than the pose's, the result jumps by twice the change of bend,
+    so callers keep such targets at the pose's own distance.
+    """
+    u, w = A - B, F - B
+    l1 = np.linalg.norm(u, axis=-1)
+    l2 = np.linalg.norm(w, axis=-1)
+    d = np.clip(np.linalg.norm(targets - A, axis=-1), np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
+    n = np.cross(u, w)
+    nn = np.linalg.norm(n, axis=-1, keepdims=True)
+    n = np.where(nn > 1e-9, n / np.maximum(nn, 1e-12), LATERAL)
+    beta0 = np.arccos(np.clip(np.sum(u * w, -1) / (l1 * l2), -1.0, 1.0))
+    beta1 = np.arccos(np.clip((l1 ** 2 + l2 ** 2 - d ** 2) / (2 * l1 * l2), -1.0, 1.0))
+    Rm = matrices_from_axis_angles(n, beta1 - beta0)
+    a = np.einsum("...ij,...j->...i", Rm, w) + B - A
+    b = targets - A
+    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+    b = b / np.maximum(np.linalg.norm(b, axis=-1, keepdims=True), 1e-12)
+    ax = np.cross(a, b)
+    s = np.linalg.norm(ax, axis=-1)
+    ang = np.arctan2(s, np.sum(a * b, -1))
+    ax = np.where(s[..., None] > 1e-12, ax / np.maximum(s, 1e-12)[..., None], n)
+    Rs = matrices_from_axis_angles(ax, ang)
+    Wtop = Rs @ W_top
+    Wmid = Rs @ Rm @ W_mid
+    return np.swapaxes(W_parent, -1, -2) @ Wtop, np.swapaxes(Wtop, -1, -2) @ Wmid
 
 
 def place_feet(character: Character, motion: Motion, targets, legs=(0, 1, 2, 3)) -> np.ndarray:
@@ -45,70 +110,218 @@ def place_feet(character: Character, motion: Motion, targets, legs=(0, 1, 2, 3))
         leg = character.legs[i]
         top = int(leg.chain[leg.ik_start])
         mid = int(leg.chain[leg.ik_start + 1])
-        A, B, F = Wp[:, top], Wp[:, mid], Wp[:, leg.foot]
-        tgt = targets[:, i]
-        u, w = A - B, F - B
-        l1 = np.linalg.norm(u, axis=-1)
-        l2 = np.linalg.norm(w, axis=-1)
-        d = np.clip(np.linalg.norm(tgt - A, axis=-1), np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
-        n = np.cross(u, w)
-        nn = np.linalg.norm(n, axis=-1, keepdims=True)
-        n = np.where(nn > 1e-9, n / np.maximum(nn, 1e-12), LATERAL)
-        beta0 = np.arccos(np.clip(np.sum(u * w, -1) / (l1 * l2), -1.0, 1.0))
-        beta1 = np.arccos(np.clip((l1 ** 2 + l2 ** 2 - d ** 2) / (2 * l1 * l2), -1.0, 1.0))
-        Rm = matrices_from_axis_angles(n, beta1 - beta0)
-        a = np.einsum("tij,tj->ti", Rm, w) + B - A
-        b = tgt - A
-        a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-        b = b / np.maximum(np.linalg.norm(b, axis=-1, keepdims=True), 1e-12)
-        ax = np.cross(a, b)
-        s = np.linalg.norm(ax, axis=-1)
-        ang = np.arctan2(s, np.sum(a * b, -1))
-        ax = np.where(s[:, None] > 1e-12, ax / np.maximum(s, 1e-12)[:, None], n)
-        Rs = matrices_from_axis_angles(ax, ang)
-        Wtop = Rs @ Wr[:, top]
-        Wmid = Rs @ Rm @ Wr[:, mid]
-        local[:, top] = np.swapaxes(Wr[:, skel.parents[top]], -1, -2) @ Wtop
-        local[:, mid] = np.swapaxes(Wtop, -1, -2) @ Wmid
+        local[:, top], local[:, mid] = two_bone(
+            Wp[:, top], Wp[:, mid], Wp[:, leg.foot], Wr[:, skel.parents[top]], Wr[:, top],
+            Wr[:, mid], targets[:, i])
     return quaternions_from_matrices(local)
 
 
-def stance_targets(feet: np.ndarray, contacts: np.ndarray, ground: float = 0.0) -> np.ndarray:
-    """Foot targets holding each contact still at its first frame's place, on the ground.
+def _runs(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and (exclusive) ends of the True runs of a 1-D bool array."""
+    edges = np.diff(np.concatenate([[0], c.astype(np.int8), [0]]))
+    return np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+
+
+def _smoothstep(x: np.ndarray) -> np.ndarray:
+    """``3x^2 - 2x^3`` on [0, 1] (zero slope at both ends), clipped outside."""
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+#: A foot lower than this (m) next to a contact is brought to rest along the
+#: ground at the contact (see :func:`stance_targets`); from it up, fully free.
+SKID_HEIGHT = 0.01
+
+
+def _low(h: float) -> float:
+    """1 for a foot on the ground, falling linearly to 0 at :data:`SKID_HEIGHT`."""
+    return float(np.clip(1.0 - h / SKID_HEIGHT, 0.0, 1.0))
+
+
+def stance_targets(feet: np.ndarray, contacts: np.ndarray, ground: float = 0.0, *,
+                   anchor: str = "mid", ramp: int = 0, clear: bool = False) -> np.ndarray:
+    """Foot targets holding each contact still, on the ground.
 
     Parameters
     ----------
     feet : ndarray, shape (T, 4, 3)
+        Foot positions (m), legs LF, RF, LH, RH.
     contacts : ndarray of bool, shape (T, 4)
     ground : float
+        Ground height (m).
+    anchor : {"mid", "touchdown"}
+        Where a contact is held: ``"mid"`` at the foot's place on the
+        contact's middle frame, at the lowest height it reaches in the contact
+        (not below the ground) -- for looped clips, where the contact is
+        already nearly still; ``"touchdown"`` at its place on the contact's
+        first frame, on the ground -- for edited motion (a transition) whose
+        feet slip under the body: the foot stays where it landed.
+    ramp : int
+        Frames over which the swing joins each contact: before a touchdown
+        at frame ``b`` the target is ``p + s (c + k u (b - f))``, ``p`` the
+        foot on frame ``f``, ``c`` the contact's correction (hold minus foot)
+        on frame ``b``, ``u`` the foot's step along the ground into frame
+        ``b``, ``s`` a smoothstep from 0 (``ramp + 1`` frames away) to 1 (at
+        the contact), and ``k`` 1 when the foot comes in along the ground,
+        falling to 0 when it comes in from :data:`SKID_HEIGHT` or higher;
+        after a lift-off likewise. The foot thus joins its held place without
+        a jump, a foot that would skid along the ground into or out of the
+        contact is brought to rest there, and a swing that lands from above
+        is only shifted by the fading correction (the ramp is shortened to
+        half a swing shorter than two ramps). 0: no correction outside
+        contacts.
+    clear : bool
+        With ``ramp``: a foot out of contact that would dip under the ground
+        is lifted over it by a smooth bump (at least the dip on every frame).
 
     Returns
     -------
     targets : ndarray, shape (T, 4, 3)
-        ``feet`` outside contacts.
+        ``feet`` where no correction applies.
     """
+    if anchor not in ("mid", "touchdown"):
+        raise ValueError(f"anchor must be 'mid' or 'touchdown', got {anchor!r}")
+    feet = np.asarray(feet, dtype=float)
+    contacts = np.asarray(contacts, dtype=bool)
+    T = len(feet)
     tgt = np.array(feet, dtype=float)
+    frames = np.arange(T)
     for i in range(4):
-        c = contacts[:, i]
-        if not c.any():
+        starts, ends = _runs(contacts[:, i])
+        if not len(starts):
             continue
-        edges = np.diff(np.concatenate([[0], c.astype(int), [0]]))
-        starts, ends = np.nonzero(edges == 1)[0], np.nonzero(edges == -1)[0]
+        off = np.zeros((T, 3))
+        held = np.zeros((T, 3))
         for s, e in zip(starts, ends):
-            mid = (s + e - 1) // 2
-            tgt[s:e, i, 0] = feet[mid, i, 0]
-            tgt[s:e, i, 2] = feet[mid, i, 2]
-            tgt[s:e, i, 1] = ground + max(0.0, float(np.min(feet[s:e, i, 1]) - ground))
+            if anchor == "mid":
+                k = (s + e - 1) // 2
+                y = ground + max(0.0, float(np.min(feet[s:e, i, 1]) - ground))
+            else:
+                k, y = s, ground
+            hold = np.array([feet[k, i, 0], y, feet[k, i, 2]])
+            held[s:e] = hold
+            off[s:e] = hold - feet[s:e, i]
+        if ramp > 0:
+            # the swings between contacts (and before the first, after the last)
+            g0 = np.concatenate([[0], ends])
+            g1 = np.concatenate([starts, [T]])
+            for a, b in zip(g0, g1):
+                if b <= a:
+                    continue
+                f = frames[a:b]
+                r = ramp if (a == 0 or b == T) else min(ramp, (b - a) / 2.0)
+                w = np.zeros((b - a, 3))
+                if a > 0:      # leave the contact that ends at a (its last frame a - 1)
+                    v = (feet[a, i] - feet[a - 1, i]) * _low(feet[a, i, 1] + off[a - 1, 1] - ground)
+                    v[1] = 0.0
+                    d = off[a - 1] - v * (f - a + 1)[:, None]
+                    w += d * _smoothstep(1.0 - (f - a + 1) / (r + 1))[:, None]
+                if b < T:      # arrive at the contact that starts at b
+                    v = (feet[b, i] - feet[b - 1, i]) * _low(feet[b - 1, i, 1] + off[b, 1] - ground)
+                    v[1] = 0.0
+                    d = off[b] + v * (b - f)[:, None]
+                    w += d * _smoothstep(1.0 - (b - f) / (r + 1))[:, None]
+                off[a:b] = w
+        tgt[:, i] = np.where(contacts[:, i, None], held, feet[:, i] + off)
+        if clear and ramp > 0:
+            # a swing that dips under the ground is lifted by a smooth bump
+            dip = np.where(contacts[:, i], 0.0, np.maximum(ground - tgt[:, i, 1], 0.0))
+            tgt[:, i, 1] += np.where(contacts[:, i], 0.0, _smooth_cover(dip, max(ramp // 3, 1)))
     return tgt
 
 
-def pin_stance(character: Character, motion: Motion, contacts, ground: float = 0.0) -> Motion:
-    """The motion with every foot held still through each of its contacts."""
+def reach_drop(character: Character, motion: Motion, targets, contacts, *, slack: float = 0.001,
+               smooth: int = 4) -> np.ndarray:
+    """How far to lower the root so that every held foot can reach its target.
+
+    A leg's two-bone pair reaches ``(1 - slack)`` of its length from its top
+    joint (the bones below the pair as they are on that frame); a held target
+    beyond that asks for the root to come down until the target is in reach
+    (the largest of the held legs). The drops are then spread smoothly in
+    time -- a running maximum over ``2 smooth`` frames either side, then two
+    running means over ``smooth`` frames either side -- so that the result is
+    at least the need on every frame and has no jumps.
+
+    Parameters
+    ----------
+    character : Character
+    motion : Motion
+        T frames.
+    targets : array-like, shape (T, 4, 3)
+        Foot targets (m), as from :func:`stance_targets`.
+    contacts : array-like of bool, shape (T, 4)
+        The feet held on each frame (only these count).
+    slack : float
+        Fraction of the leg's length kept in reserve (a straight leg is a
+        singular pose for the IK).
+    smooth : int
+        Frames of the smoothing.
+
+    Returns
+    -------
+    drop : ndarray, shape (T,)
+        Metres, >= 0.
+    """
+    targets = np.asarray(targets, dtype=float)
     contacts = np.asarray(contacts, dtype=bool)
-    tgt = stance_targets(motion.foot_positions(), contacts, ground)
+    Wp = motion.world_positions()
+    T = len(Wp)
+    need = np.zeros(T)
+    for i, leg in enumerate(character.legs):
+        top = int(leg.chain[leg.ik_start])
+        mid = int(leg.chain[leg.ik_start + 1])
+        A = Wp[:, top]
+        R = (np.linalg.norm(Wp[:, mid] - A, axis=-1)
+             + np.linalg.norm(Wp[:, leg.foot] - Wp[:, mid], axis=-1)) * (1.0 - slack)
+        d = targets[:, i] - A
+        hd2 = d[:, 0] ** 2 + d[:, 2] ** 2
+        v = -d[:, 1]                                   # how far the target is below the top
+        ok = hd2 < R ** 2
+        dy = np.where(ok, v - np.sqrt(np.maximum(R ** 2 - hd2, 0.0)), 0.0)
+        need = np.maximum(need, np.where(contacts[:, i] & ok, np.maximum(dy, 0.0), 0.0))
+    return _smooth_cover(need, smooth)
+
+
+def _smooth_cover(x: np.ndarray, k: int) -> np.ndarray:
+    """A smooth curve at least ``x`` (T,) on every frame: running max over ``2k``
+    frames either side, then two running means over ``k`` either side."""
+    if not x.any() or k <= 0:
+        return x
+    k = int(k)
+    pad = np.pad(x, 2 * k, mode="edge")
+    out = np.lib.stride_tricks.sliding_window_view(pad, 4 * k + 1).max(axis=-1)
+    for _ in range(2):
+        pad = np.pad(out, k, mode="edge")
+        out = np.lib.stride_tricks.sliding_window_view(pad, 2 * k + 1).mean(axis=-1)
+    return out
+
+
+def pin_stance(character: Character, motion: Motion, contacts, ground: float = 0.0, *,
+               anchor: str = "mid", ramp: int = 0) -> Motion:
+    """The motion with every foot held still through each of its contacts.
+
+    Parameters
+    ----------
+    character : Character
+    motion : Motion
+        T frames.
+    contacts : array-like of bool, shape (T, 4)
+        Which feet to hold, per frame.
+    ground : float
+        Ground height (m).
+    anchor, ramp
+        As in :func:`stance_targets`.
+
+    Returns
+    -------
+    Motion
+        Same root; leg rotations changed by :func:`place_feet`.
+    """
+    contacts = np.asarray(contacts, dtype=bool)
+    tgt = stance_targets(motion.foot_positions(), contacts, ground, anchor=anchor, ramp=ramp)
     rot = place_feet(character, motion, tgt)
     return Motion(motion.skeleton, motion.fps, motion.root_positions, rot,
                   foot_joints=motion.foot_joints)
 
 
-__all__ = ["pin_stance", "place_feet", "stance_targets"]
+__all__ = ["pin_stance", "place_feet", "reach_drop", "stance_targets", "two_bone"]

@@ -26,6 +26,33 @@ gives 0.32 -> 0.24 s over 9-17 m/s in mph (real racehorses: 0.13 -> 0.08 s;
 m/s and km/h are no closer), and the amble 0.73 -> 0.61 s over 2.7-3.8 m/s,
 whose steps ``D = v Tc`` of 2.0-2.3 m a 1.3 m leg cannot make.
 
+What a leg reaches
+------------------
+``D`` is the stance sweep: how far the body passes over a planted foot. The
+horse's legs (hip height 1.28 m) sweep at most 0.93 m with the body lowered
+by 5 % of the pelvis height (7.6 cm), 1.19 m at 10 %, 1.38 m at 15 % and
+1.79 m even at 30 % (a 46 cm crouch; the procedural controller's measured
+sweep table). The law asks for
+
+========  ==================  ==============================
+gait      speeds (m/s)        ``D`` (m)
+========  ==================  ==============================
+walk      1.4 -> 1.8          1.05 -> 1.12
+trot      2.5 -> 6.5          0.97 -> 1.24
+rack      2.9 -> 5.5          1.28 -> 1.37
+canter    4.4 -> 7.5          0.98 -> 1.00
+amble     2.7 -> 3.8          1.97 -> 2.33
+gallop    9 -> 17             2.84 -> 4.08
+========  ==================  ==============================
+
+so the walk, trot, rack and canter are within reach with the body lowered
+(the walk, trot and rack clips are baked with it, 8-16 % of the pelvis
+height, and step within 3 % of the law at their own speeds: see
+``tools/bake_horse_clips.py``), the amble and the gallop are not (their
+baked clips' contact times are 57-61 % and 68 % under ``a v^b``: 0.30 s
+against 0.70 s at 2.9 m/s, 0.09 s against 0.29 s at 11 m/s; the gallop
+clip's 0.09 s is the racehorse's).
+
 Two anchors
 -----------
 ``anchor="law"`` makes the expanded clip's contact time ``a v^b`` itself.
@@ -33,7 +60,12 @@ Two anchors
 ``Tc' = Tc0 (v'/v0)^b`` and ``D'/D0 = (v'/v0)^(1+b)`` -- the exponent the seed
 fitted, free of the speed unit and of ``a`` -- which is the same thing when the
 clip obeys the law (the seed's clips were the data the law was fitted to) and
-the usable choice for gaits whose absolute law the leg cannot reach (above).
+the usable choice for gaits whose absolute law the leg cannot reach (the amble
+and the gallop, above). With clips that obey the law the step scale ``r``
+below stays near 1 (with ``anchor="law"``: 0.92-1.05 for the walk at 1.3-1.8
+m/s, the trot at 3-5, the rack at 3.5-5 and the canter at 5.2-7; 0.90-1.06
+over these gaits' whole speed ranges: a foot is moved out by at most 6 %), so
+the moved feet stay within the legs' reach.
 
 Method (the seed's equation 2, then time warping)
 -------------------------------------------------

@@ -21,8 +21,33 @@ tail) blend the body postures of both clips at the four legs' times
 the body; it is moved forward by the landing feet (equation 11,
 :mod:`quadsim.horse.root`), or at the blended speed ``w1 v1 + w2 v2``.
 
+Stance alignment (our addition). Equations 8-9 keep each leg at the same
+phase since its touchdown in both clips, but the gaits' duty factors differ
+(walk 0.7, gallop 0.25): half-way through the blend a leg would mix a late
+stance pose of M1 (leg swept back, foot down) with a swing pose of M2 (leg
+reaching forward), and the slerp of the two passes the leg through the
+vertical, the foot 0.1 m into the ground. So each leg's stance length blends
+too, ``d = w1 duty1 + w2 duty2``, and both clips are sampled at the leg's
+phase re-timed (:func:`stance_aligned_times`) so that the leg is down in both
+for the first ``d`` of its cycle and up in both for the rest; with ``w2 = 0``
+(``= 1``) M1 (M2) plays unchanged. The leg's planned contacts follow.
+
+Feet on the ground (our addition to equation 11). The mean slip of
+equation 11 holds the average stance foot, not each one: the legs run at
+their own rates, so each stance foot still slips under the body (5-17 cm
+over a contact before this step, see ``tools/horse_transition_table.py``).
+:func:`transition_motion` holds every planned contact where the foot lands
+(:func:`~quadsim.horse.legs.stance_targets`, anchor at touchdown; the swing
+joins the held place over :data:`PIN_RAMP` frames), lowers the root smoothly
+where a held foot is out of its leg's reach
+(:func:`~quadsim.horse.legs.reach_drop`), poses the legs by IK, then
+measures the contacts on the result and holds any the plan missed (a blended
+foot may land a frame early).
+
 :func:`synchronous_transition` is the baseline: every leg at the reference
-leg's times, the whole pose slerped from M1 to M2.
+leg's times, the whole pose slerped from M1 to M2, no stance alignment; its
+feet are held by the same IK. :func:`transition_quality` measures a
+transition from its joint positions.
 """
 
 from __future__ import annotations
@@ -36,6 +61,10 @@ from .database import Clip
 
 REFERENCE = 2  # LH
 TRANSITION_CYCLES = 2.5
+#: Frames over which a swing joins its held contact (see :func:`~quadsim.horse.legs.stance_targets`).
+PIN_RAMP = 6
+#: Height (m) under which :func:`transition_quality`'s ``skim`` counts a foot as down.
+SKIM_HEIGHT = 0.003
 
 
 def blend_frames(L1: int, L2: int) -> int:
@@ -101,6 +130,49 @@ def leg_times(clip1: Clip, clip2: Clip, t_start: float) -> dict:
             "sigma": sigma, "sigma_star": sigma_star}
 
 
+def leg_stance(clip: Clip) -> np.ndarray:
+    """Each leg's contact in a clip's cycle: ``[on, off]`` (cycles), shape (4, 2).
+
+    The first measured contact of each foot (:func:`~quadsim.horse.root.clip_stance_cycles`);
+    NaN for a leg with no contact or more than one per cycle.
+    """
+    from .root import clip_stance_cycles
+
+    out = np.full((4, 2), np.nan)
+    for j, s in enumerate(clip_stance_cycles(clip)):
+        if len(s) == 1:
+            out[j] = s[0]
+    return out
+
+
+def stance_aligned_times(t: np.ndarray, on: float, duty: float, d: np.ndarray) -> np.ndarray:
+    """A leg's generic times re-timed so that its stance lasts ``d`` of a cycle.
+
+    The leg's phase since its touchdown ``phi = (t - on) mod 1`` is mapped
+    piecewise linearly: ``[0, d]`` onto the clip's stance ``[0, duty]`` and
+    ``[d, 1]`` onto its swing ``[duty, 1]``. With ``d = duty`` the times are
+    unchanged.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Generic times (cycles).
+    on, duty : float
+        The clip's touchdown of this leg and its stance length (cycles).
+    d : ndarray, shape (n,)
+        Wanted stance length (cycles), in (0, 1).
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Generic times (cycles) to sample the clip at.
+    """
+    t = np.asarray(t, dtype=float)
+    phi = (t - on) % 1.0
+    g = np.where(phi < d, phi * duty / d, duty + (phi - d) * (1.0 - duty) / (1.0 - d))
+    return t - phi + g
+
+
 def _transition(character, clip1, clip2, t_start, synchronous: bool):
     lt = leg_times(clip1, clip2, t_start)
     B, w2 = lt["B"], lt["w2"]
@@ -108,8 +180,24 @@ def _transition(character, clip1, clip2, t_start, synchronous: bool):
         # every leg on the reference leg's times, in both clips
         t1 = np.repeat(lt["t1"][:, REFERENCE][:, None], 4, axis=1)
         t2 = np.repeat(lt["t2"][:, REFERENCE][:, None], 4, axis=1)
+        stance = None
     else:
-        t1, t2 = lt["t1"], lt["t2"]
+        t1, t2 = np.array(lt["t1"]), np.array(lt["t2"])
+        # each leg's stance blends from its length in M1 to that in M2; both
+        # clips are re-timed to it, so the leg is down (or up) in both at once
+        s1, s2 = leg_stance(clip1), leg_stance(clip2)
+        stance = np.zeros((B, 4), dtype=bool)
+        for j in range(4):
+            if np.isnan(s1[j]).any() or np.isnan(s2[j]).any():
+                stance = None
+                break
+            du1, du2 = s1[j, 1] - s1[j, 0], s2[j, 1] - s2[j, 0]
+            d = (1 - w2) * du1 + w2 * du2
+            stance[:, j] = (t1[:, j] - s1[j, 0]) % 1.0 < d
+            t1[:, j] = stance_aligned_times(t1[:, j], s1[j, 0], du1, d)
+            t2[:, j] = stance_aligned_times(t2[:, j], s2[j, 0], du2, d)
+        if stance is None:
+            t1, t2 = lt["t1"], lt["t2"]
     legs, body = _leg_joint_sets(character)
     J = character.skeleton.n_joints
     rot = np.zeros((B, J, 4))
@@ -134,25 +222,27 @@ def _transition(character, clip1, clip2, t_start, synchronous: bool):
     rot[:, body] = m / np.linalg.norm(m, axis=-1, keepdims=True)
     h = np.mean(hb, axis=0)
     speed = (1 - w2) * clip1.speed + w2 * clip2.speed
+    lt = dict(lt, stance=stance)
     return rot, h, speed, lt
 
 
 def transition_motion(character: Character, clip1: Clip, clip2: Clip, *, t_start: float = 0.0,
                       before: float = 2.0, after: float = 4.0, synchronous: bool = False,
-                      root: str = "feet") -> Motion:
+                      root: str = "feet", pin: bool = True) -> Motion:
     """M1 for ``before`` cycles from generic time 0, then the transition
     (starting at M1 generic time ``before + t_start``), then M2 for ``after``
     cycles of M2.
 
     ``root="feet"`` moves the root by the landing feet (equation 11, see
-    :mod:`quadsim.horse.root`) and holds the stance feet still by IK;
-    ``root="speed"`` advances it at the blended speed only.
+    :mod:`quadsim.horse.root`) and, with ``pin`` (default), holds the stance
+    feet still by IK where they land (see the module notes);
+    ``root="speed"`` advances it at the blended speed only. ``pin=False``
+    leaves the blend's legs as they are (to measure the blend itself).
 
     Returns a Motion at the clips' frame rate whose ``extras`` hold
     ``"blend"`` (T,), the M2 weight (0 before, 1 after the transition), and
     ``"foot_phase"`` (T, 4): stance, striking or flight per foot.
     """
-    from .legs import pin_stance
     from .root import clip_stance_cycles, foot_phase, in_stance, root_from_feet
 
     if root not in ("feet", "speed"):
@@ -189,16 +279,136 @@ def transition_motion(character: Character, clip1: Clip, clip2: Clip, *, t_start
         free = np.nonzero(~a1[:, j] & ~a2[:, j])[0]
         k = int(free[np.argmin(np.abs(free - B / 2))]) if len(free) else B // 2
         st_b[:, j] = np.where(idx < k, a1[:, j], a2[:, j])
+    if lt["stance"] is not None:       # stance-aligned legs: down in both clips at once
+        st_b = lt["stance"]
     stance = np.concatenate([in_stance(s1, np.repeat(t_pre[:, None], 4, axis=1)), st_b,
                              in_stance(s2, np.repeat(t_post[:, None], 4, axis=1))])
     m = Motion(character.skeleton, fps, pos, rot, foot_joints=character.foot_joints)
     if root == "feet":
         pos = root_from_feet(m, stance, clip1.speed)
         m = Motion(character.skeleton, fps, pos, rot, foot_joints=character.foot_joints)
-        m = pin_stance(character, m, stance)
+        if pin:
+            m, stance = _pin_measured(character, m, stance)
     return Motion(character.skeleton, fps, m.root_positions, m.rotations,
                   foot_joints=character.foot_joints,
                   extras={"blend": blend, "foot_phase": foot_phase(stance)})
+
+
+def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int = 3):
+    """Hold the feet still through the planned contacts and any contact the motion shows.
+
+    The planned contacts (``stance``, each leg's own clip contacts) are held
+    where each foot lands, on the ground
+    (:func:`~quadsim.horse.legs.stance_targets`, anchor at touchdown, the
+    swing easing onto and off the held place over ``ramp`` frames); where a
+    held foot lies beyond its leg's reach the root comes down, smoothly
+    (:func:`~quadsim.horse.legs.reach_drop`), while every foot keeps its
+    planned world path; :func:`~quadsim.horse.legs.place_feet` poses the legs.
+    A blended leg may reach the ground a frame or two before its plan, so the
+    contacts are then measured on the result
+    (:func:`~quadsim.analysis.metrics.foot_contacts`: low and slow, trimmed
+    to the on-ground band), any measured contact frame outside the plan is
+    added to it and the feet held again, up to ``rounds`` times.
+
+    Parameters
+    ----------
+    character : Character
+    motion : Motion
+        The blend, root moved by equation 11, T frames.
+    stance : ndarray of bool, shape (T, 4)
+        The planned contacts.
+    ramp : int
+        Easing frames (see :func:`~quadsim.horse.legs.stance_targets`).
+    rounds : int
+        Most passes of holding and measuring.
+
+    Returns
+    -------
+    motion : Motion
+    stance : ndarray of bool, shape (T, 4)
+        The contacts held.
+    """
+    from ..analysis.metrics import foot_contacts
+    from .legs import place_feet, reach_drop, stance_targets
+
+    held = np.asarray(stance, dtype=bool)
+    feet = motion.foot_positions()
+    for _ in range(rounds):
+        # where a held foot is out of the leg's reach, the root comes down
+        tgt = stance_targets(feet, held, anchor="touchdown", ramp=ramp, clear=True)
+        drop = reach_drop(character, motion, tgt, held)
+        lowered = motion
+        if drop.any():
+            root = np.array(motion.root_positions)
+            root[:, 1] -= drop
+            lowered = Motion(motion.skeleton, motion.fps, root, motion.rotations,
+                             foot_joints=motion.foot_joints)
+        # the feet keep their planned world paths (a swing foot does not come
+        # down with the root): the IK bends the legs instead
+        out = Motion(motion.skeleton, motion.fps, lowered.root_positions,
+                     place_feet(character, lowered, tgt), foot_joints=motion.foot_joints)
+        got = foot_contacts(out.foot_positions(), motion.fps)
+        if not (got & ~held).any():
+            break
+        held = held | got
+    return out, held
+
+
+def steady_acceleration(clip: Clip, cycles: int = 3) -> float:
+    """Largest joint angular acceleration (rad/s^2) of a clip played looped, steady."""
+    from ..analysis.metrics import angular_acceleration
+    from .database import looped
+
+    return float(angular_acceleration(looped(clip.motion, cycles, clip.speed)).max())
+
+
+def transition_quality(motion: Motion, clip1: Clip, clip2: Clip, *, tol: float = 0.06) -> dict:
+    """Measure a transition from its joint positions, not from its labels.
+
+    Parameters
+    ----------
+    motion : Motion
+        As made by :func:`transition_motion` (``extras["blend"]`` marks the blend).
+    clip1, clip2 : Clip
+        The old and new gait's clips.
+    tol : float
+        Phase tolerance (fraction of a stride) of the footfall pattern.
+
+    Returns
+    -------
+    dict
+        ``slide`` (m): the largest horizontal travel of a foot from where it
+        touched down, over every contact of the whole motion, the contacts
+        measured from the foot positions (:func:`~quadsim.analysis.metrics.foot_contacts`:
+        low and slow, trimmed to the on-ground band);
+        ``accel_ratio``: the largest joint angular acceleration of the
+        motion over the larger of the two clips' steady maxima
+        (:func:`steady_acceleration`);
+        ``strides``: left-hind strides from the blend's first frame until
+        the new gait's footfall pattern (phases of the clip2 touchdowns)
+        holds for good (:func:`~quadsim.analysis.metrics.strides_to_pattern`),
+        None if never; ``penetration`` (m): deepest foot below the ground;
+        ``skim`` (m): a stricter slide, the contacts taken as every frame a
+        foot is within :data:`SKIM_HEIGHT` of the ground whatever its speed
+        (it also counts a foot that grazes the ground as it lands or leaves).
+    """
+    from ..analysis.metrics import (
+        angular_acceleration,
+        foot_contacts,
+        foot_slide,
+        strides_to_pattern,
+    )
+
+    feet = motion.foot_positions()
+    c = foot_contacts(feet, motion.fps)
+    start = int(np.argmax(motion.extras["blend"] > 0)) / motion.fps
+    want = ((clip2.touchdown - clip2.touchdown[REFERENCE]) / clip2.frames) % 1.0
+    steady = max(steady_acceleration(clip1), steady_acceleration(clip2))
+    return {"slide": foot_slide(feet, c)[1],
+            "accel_ratio": float(angular_acceleration(motion).max()) / steady,
+            "strides": strides_to_pattern(c, motion.fps, want, feet=feet, start=start, tol=tol),
+            "penetration": float(max(0.0, -feet[..., 1].min())),
+            "skim": foot_slide(feet, feet[..., 1] <= SKIM_HEIGHT)[1]}
 
 
 def synchronous_transition(character, clip1, clip2, **kw) -> Motion:
@@ -206,5 +416,6 @@ def synchronous_transition(character, clip1, clip2, **kw) -> Motion:
     return transition_motion(character, clip1, clip2, synchronous=True, **kw)
 
 
-__all__ = ["REFERENCE", "blend_frames", "leg_times", "sample_cycle", "synchronous_transition",
-           "transition_motion"]
+__all__ = ["REFERENCE", "blend_frames", "leg_stance", "leg_times", "sample_cycle",
+           "stance_aligned_times", "steady_acceleration", "synchronous_transition",
+           "transition_motion", "transition_quality"]

@@ -38,6 +38,35 @@ def matrices_about_axis(axis: int, angles: np.ndarray) -> np.ndarray:
     return R
 
 
+def matrices_yaw_pitch(yaw: np.ndarray, pitch: np.ndarray) -> np.ndarray:
+    """``R_y(yaw) @ R_x(pitch)`` in closed form: a turn about +Y after a tilt
+    about +X.
+
+    Parameters
+    ----------
+    yaw, pitch : array-like, shape (...)
+        Angles in radians (broadcast together).
+
+    Returns
+    -------
+    R : ndarray, shape (..., 3, 3)
+    """
+    a = np.asarray(yaw, dtype=float)
+    b = np.asarray(pitch, dtype=float)
+    ca, sa, cb, sb = np.cos(a), np.sin(a), np.cos(b), np.sin(b)
+    R = np.empty(np.broadcast_shapes(a.shape, b.shape) + (3, 3))
+    R[..., 0, 0] = ca
+    R[..., 0, 1] = sa * sb
+    R[..., 0, 2] = sa * cb
+    R[..., 1, 0] = 0.0
+    R[..., 1, 1] = cb
+    R[..., 1, 2] = -sb
+    R[..., 2, 0] = -sa
+    R[..., 2, 1] = ca * sb
+    R[..., 2, 2] = ca * cb
+    return R
+
+
 def matrices_from_axis_angles(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
     """Rodrigues' formula, batched.
 

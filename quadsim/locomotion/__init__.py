@@ -3,6 +3,7 @@
 Knows nothing of files or screens.
 """
 
+from quadsim.locomotion.batch import BatchController
 from quadsim.locomotion.commands import Command, Script
 from quadsim.locomotion.controller import (
     ControllerSettings,
@@ -11,5 +12,5 @@ from quadsim.locomotion.controller import (
     simulate,
 )
 
-__all__ = ["Command", "ControllerSettings", "ProceduralController", "QuadsimClampWarning",
-           "Script", "simulate"]
+__all__ = ["BatchController", "Command", "ControllerSettings", "ProceduralController",
+           "QuadsimClampWarning", "Script", "simulate"]

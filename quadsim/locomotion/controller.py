@@ -16,7 +16,18 @@ One :class:`ProceduralController` drives one character. Each call of
 
 :func:`simulate` runs a scripted sequence and returns a
 :class:`~quadsim.skeleton.motion.Motion`; the posing of all frames is done
-in one vectorised pass at the end.
+in one compiled pass at the end.
+
+Speed: one character's state is a few numbers per leg, so a step keeps it
+in plain Python floats and lists -- numpy's per-call overhead on arrays of
+four numbers costs more than the arithmetic -- and runs the heavy stages as
+compiled kernels over rows, the very ones
+:class:`~quadsim.locomotion.batch.BatchController` runs for N characters:
+the CPG step (:func:`~quadsim.locomotion.cpg.cpg_step_rows`), the feet
+(:func:`~quadsim.locomotion.plan_kernels.feet_rows`) and the posing, leg IK
+and forward kinematics (:mod:`quadsim.locomotion.pose_kernel`), for a single
+frame and a whole clip alike. Tests hold the batch to the same motion to
+1e-9.
 
 Bad commands: a negative or non-finite speed or turn rate raises
 ``ValueError`` (:class:`~quadsim.locomotion.commands.Command` checks it); an
@@ -29,16 +40,17 @@ from __future__ import annotations
 
 import math
 import warnings
+import weakref
+from itertools import chain
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from quadsim.frames import FORE, Y
+from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.commands import Command, Script
-from quadsim.locomotion.cpg import TWO_PI, CPGParams, cpg_step
-from quadsim.locomotion.footpath import swing_position
+from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.gaits import (
     Gait,
     auto_gaits,
@@ -46,23 +58,23 @@ from quadsim.locomotion.gaits import (
     max_speed,
     resolve_gait_name,
 )
+from quadsim.locomotion.plan_kernels import MIN_SWING, feet_rows
 from quadsim.locomotion.posing import Poser
-from quadsim.locomotion.spine import flex_angle, rate_limited, spine_state, spine_target
+from quadsim.locomotion.scalar import TWO_PI, interp
 from quadsim.locomotion.transition import GaitScheduler
-from quadsim.locomotion.turning import arc_advance, rotate_y, turn_rate_towards
+from quadsim.locomotion.turning import turn_rate_towards
 from quadsim.skeleton.character import Character
-from quadsim.skeleton.fk import forward_kinematics
 from quadsim.skeleton.motion import Motion
 
-#: Shortest swing, as a fraction of the stride, worth lifting a foot for.
-MIN_SWING = 0.12
 
 #: The standing state: every foot planted (duty factor 1), entered when the
 #: commanded speed is zero and left when it is not.
 STAND = "stand"
 
-#: Girdle of each leg in leg order (0 hind, 1 fore), indexing the key points.
-_GIRDLE = np.where(FORE, 1, 0)
+
+
+#: Measured stance sweeps per character (see ProceduralController._measure_sweeps).
+_SWEEPS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _standing(slowest: Gait) -> Gait:
@@ -70,6 +82,21 @@ def _standing(slowest: Gait) -> Gait:
     transition ends no foot lifts, so the character stands."""
     return replace(slowest, name=STAND, duty_range=(1.0, 1.0), spine_amplitude=0.0,
                    drop=0.0)
+
+
+def initial_oscillators(gait: Gait, seed: int):
+    """Seeded starting state of the oscillators for a start in ``gait``.
+
+    The left hind foot starts in mid-stance, every phase and amplitude with a
+    small seeded perturbation. Returns ``theta`` (4,), ``r`` (4,) and the
+    spine phase ``theta_s`` (0-d array).
+    """
+    rng = np.random.default_rng(seed)
+    beta = float(gait.duty(gait.speed_range[0]))
+    theta = TWO_PI * (0.5 * beta - gait.phases) + rng.normal(0.0, 0.05, 4)
+    r = np.full(4, 1.0) + rng.normal(0.0, 0.02, 4)
+    theta_s = np.asarray(theta[2] + rng.normal(0.0, 0.05))
+    return theta, r, theta_s
 
 
 class QuadsimClampWarning(UserWarning):
@@ -161,7 +188,13 @@ class ProceduralController:
         pair_top = np.array([leg.chain[leg.ik_start] for leg in ch.legs])
         self.pair_height = P[pair_top, Y]
         self.drops = np.linspace(0.0, 0.3, 13)
-        self.half_sweep = np.maximum.accumulate(self._measure_sweeps(self.drops), axis=0)
+        sweep = _SWEEPS.get(ch)
+        if sweep is None:
+            # a property of the (immutable) character alone: measured once
+            sweep = np.maximum.accumulate(self._measure_sweeps(self.drops), axis=0)
+            sweep.setflags(write=False)
+            _SWEEPS[ch] = sweep
+        self.half_sweep = sweep
         # per-step constants: each leg's sweep column and the worst leg's
         self._sweep_cols = tuple(np.ascontiguousarray(self.half_sweep[:, i]) for i in range(4))
         self._sweep_min = self.half_sweep.min(axis=1)
@@ -173,36 +206,43 @@ class ProceduralController:
         self.foot_offset[:, Y] = 0.0
         self.foot_offset[:, 0] = feet[:, 0]  # lateral offset from the mid-line
         self.tail_rest = np.zeros((len(ch.tail), 2))
+        # plain-float copies for the per-step maths (quadsim.locomotion.scalar)
+        self._drops_f = self.drops.tolist()
+        self._sweep_cols_f = tuple(c.tolist() for c in self._sweep_cols)
+        self._sweep_min_f = self._sweep_min.tolist()
+        self._offset_f = tuple(tuple(o) for o in self.foot_offset.tolist())
+        self._offset_1 = np.ascontiguousarray(self.foot_offset[None], dtype=float)
 
     def _init_state(self, seed: int) -> None:
-        rng = np.random.default_rng(seed)
-        gait = self.gaits[self.scheduler.current]
-        beta = float(gait.duty(gait.speed_range[0]))
-        # start with the left hind in mid-stance, small seeded perturbation
-        self.theta = TWO_PI * (0.5 * beta - gait.phases) + rng.normal(0.0, 0.05, 4)
-        self.r = np.full(4, 1.0) + rng.normal(0.0, 0.02, 4)
-        self.theta_s = np.asarray(self.theta[2] + rng.normal(0.0, 0.05))
-        self.r_s = np.asarray(1.0)
+        # per-leg state as lists of plain floats (legs LF, RF, LH, RH), points
+        # as 3-tuples: numpy on four numbers costs more in calls than in sums
+        theta, r, theta_s = initial_oscillators(self.gaits[self.scheduler.current], seed)
+        self.theta = theta.tolist()
+        self.r = r.tolist()
+        self.theta_s = float(theta_s)
+        self.r_s = 1.0
         self.time = 0.0
         self.speed = 0.0
         self.yaw_rate = 0.0
         self.heading = 0.0
-        self.root_xz = np.array([0.0, 0.0, 0.0])
+        self.root_xz = (0.0, 0.0, 0.0)
         self.bend = 0.0
         self.spine_angle = 0.0
         self.spine_smooth = 0.0
         self.height = self.pelvis_height
-        self.drops_now = np.zeros(2)
-        self.tail = self.tail_rest.copy()
-        self.stance = np.ones(4, dtype=bool)
+        self.drops_now = [0.0, 0.0]
+        self.tail = self.tail_rest.tolist()
+        self.stance = [True] * 4
         feet = self.character.rest_foot_positions().copy()
         feet[:, Y] = 0.0
-        self.planted = feet
-        self.liftoff = feet.copy()
-        self.theta_lo = self.theta.copy()
-        self.theta_td = self.theta.copy()
-        self.swing_s = np.zeros(4)
-        self.feet = feet.copy()
+        self.planted = [tuple(f) for f in feet.tolist()]
+        self.feet = list(self.planted)
+        # the feet's state as the compiled stage 5 updates it in place (one row;
+        # stance and planted are mirrored in the lists above)
+        self._feet_state = {
+            "stance": np.ones((1, 4), dtype=bool), "swing_s": np.zeros((1, 4)),
+            "theta_lo": np.array([self.theta]), "theta_td": np.array([self.theta]),
+            "planted": feet[None].copy(), "liftoff": feet[None].copy()}
         self.params = self.scheduler.params(0.0)
         self.freq = 1.0
 
@@ -213,30 +253,28 @@ class ProceduralController:
             warnings.warn(msg, QuadsimClampWarning, stacklevel=3)
 
     def _key_points(self, root_xz, heading, bend):
-        """Hind and fore key points (2, 3) and their headings (2,)."""
+        """Hind and fore key points (two 3-tuples) and their headings (two floats)."""
         # rotate_y of (0, 0, z) about +Y, in scalar form: (z sin h, 0, z cos h)
         hz, bl = self.hind_z, self.body_length
         fh = heading + 0.5 * bend
-        x, y, z = float(root_xz[0]), float(root_xz[1]), float(root_xz[2])
+        x, y, z = root_xz
         hx, hy, hzz = x + math.sin(heading) * hz, y + 0.0, z + math.cos(heading) * hz
-        keys = np.array([[hx, hy, hzz],
-                         [hx + math.sin(fh) * bl, hy + 0.0, hzz + math.cos(fh) * bl]])
-        return keys, np.array([heading, heading + bend])
+        keys = ((hx, hy, hzz), (hx + math.sin(fh) * bl, hy + 0.0, hzz + math.cos(fh) * bl))
+        return keys, (heading, heading + bend)
 
     def _girdle_frame(self, keys, key_heading):
-        """Each foot's mid-stance point (4, 3) and its girdle's forward vector (4, 3)."""
-        kh = key_heading[_GIRDLE]
-        c, sn = np.cos(kh), np.sin(kh)
-        off = self.foot_offset
-        mid = np.empty((4, 3))
-        mid[:, 0] = c * off[:, 0] + sn * off[:, 2]
-        mid[:, 1] = off[:, 1]
-        mid[:, 2] = -sn * off[:, 0] + c * off[:, 2]
-        mid += keys[_GIRDLE]
-        fwd = np.zeros((4, 3))
-        fwd[:, 0] = sn
-        fwd[:, 2] = c
-        return mid, fwd
+        """Each foot's mid-stance point and its girdle's forward vector (lists
+        of four 3-tuples)."""
+        mids, fwds = [], []
+        for g in (0, 1):
+            kh = key_heading[g]
+            c, sn = math.cos(kh), math.sin(kh)
+            kx, ky, kz = keys[g]
+            for ox, oy, oz in self._offset_f[2 - 2 * g:4 - 2 * g]:
+                mids.append((c * ox + sn * oz + kx, oy + ky, -sn * ox + c * oz + kz))
+                fwds.append((sn, 0.0, c))
+        # legs in order LF, RF (fore girdle), LH, RH (hind)
+        return mids[2:] + mids[:2], fwds[2:] + fwds[:2]
 
     def _measure_sweeps(self, drops: np.ndarray) -> np.ndarray:
         """Half stance sweep each leg reaches exactly, per body drop, shape (D, 4) (m).
@@ -284,21 +322,25 @@ class ProceduralController:
         The bounding gaits keep a further 5 % in hand for the spine's flexion,
         which moves the girdles against the feet.
         """
-        drops = self.drops
-        half = min(float(np.interp(drop, drops, col)) for col in self._sweep_cols)
+        drops = self._drops_f
+        half = min(interp(drop, drops, col) for col in self._sweep_cols_f)
         margin = self.settings.reach_margin - 0.05 * bound
         return 2.0 * margin * half / max(duty, 1e-3)
 
-    def _trailing_room(self) -> np.ndarray:
+    def _trailing_room(self, girdles=None) -> list[float]:
         """How far (m) each foot may still fall behind its girdle before it is out
-        of reach, shape (4,); the body may vault by the planned allowance."""
+        of reach, four floats; the body may vault by the planned allowance.
+        ``girdles``: this state's :meth:`_girdle_frame`, if already known."""
         p = self.params
-        keys, kh = self._key_points(self.root_xz, self.heading, self.bend)
-        mid, fwd = self._girdle_frame(keys, kh)
-        along = np.einsum("ij,ij->i", self.planted - mid, fwd)
+        if girdles is None:
+            keys, kh = self._key_points(self.root_xz, self.heading, self.bend)
+            girdles = self._girdle_frame(keys, kh)
+        mid, fwd = girdles
         d0, d1 = self.drops_now
-        drop = max(p.drop + self.settings.vault, float(max(d0, d1)))
-        return np.interp(drop, self.drops, self._sweep_min) + along
+        drop = max(p.drop + self.settings.vault, max(d0, d1))
+        base = interp(drop, self._drops_f, self._sweep_min_f)
+        return [base + ((a[0] - m[0]) * f[0] + (a[1] - m[1]) * f[1] + (a[2] - m[2]) * f[2])
+                for a, m, f in zip(self.planted, mid, fwd)]
 
     def _reach_governor(self, dt: float) -> float:
         """Fastest speed (m/s) at which no planted foot falls out of reach before
@@ -308,19 +350,29 @@ class ProceduralController:
         cap is far above the speed; it acts when feet stay planted longer than
         a stride planned for (a skipped step as the character starts or stops).
         """
-        p = self.params
-        u = np.mod(self.theta / TWO_PI, 1.0)
-        lifts = (u < p.duty) & (1.0 - MIN_SWING >= p.duty)
-        t_lo = np.where(lifts, p.duty - u, 1.0 - u + min(p.duty, 1.0 - MIN_SWING)) / self.freq
+        duty = self.params.duty
         room = self._trailing_room()
-        caps = np.maximum(room, 0.0) / np.maximum(t_lo, dt)
-        return float(np.min(np.where(self.stance, caps, np.inf)))
+        out = math.inf
+        for th, down, rm in zip(self.theta, self.stance, room):
+            if not down:
+                continue
+            u = (th / TWO_PI) % 1.0
+            lifts = u < duty and 1.0 - MIN_SWING >= duty
+            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / self.freq
+            den = max(t_lo, dt)
+            num = max(rm, 0.0)
+            if den == 0.0:  # as numpy: x / 0 is inf, 0 / 0 is nan (and nan wins)
+                if num == 0.0:
+                    return math.nan
+                continue
+            out = min(out, num / den)
+        return out
 
     def needed_drop(self, leg: int, offset: float) -> float:
         """Body drop (fraction of pelvis height) at which a planted foot ``offset``
         metres fore or aft of its mid-stance point is within the leg's reach margin."""
         x = abs(offset) / self.settings.reach_margin
-        return float(np.interp(x, self._sweep_cols[leg], self.drops))
+        return interp(x, self._sweep_cols_f[leg], self._drops_f)
 
     # ------------------------------------------------------------ stepping
     def step(self, command: Command, dt: float | None = None, *, pose: bool = True) -> dict:
@@ -338,14 +390,16 @@ class ProceduralController:
             :func:`simulate` steps with ``pose=False`` and poses all frames
             at once at the end.
         """
-        frame = self._advance(command, dt)
+        raw = self._advance(command, dt)
+        n_tail = len(raw["tail"])
+        frame = {k: np.array(v) for k, v in raw.items()}
+        frame["tail"] = frame["tail"].reshape(n_tail, 2)
+        frame["gait"] = raw["gait"]
         if pose:
-            plan = {k: np.asarray(frame[k])[None] for k in _POSE_KEYS}
-            local, root, err = self.poser.pose(plan)
-            _, P = forward_kinematics(self.character.skeleton, local, root)
-            frame["local_rotations"] = local[0]
-            frame["positions"] = P[0]
-            frame["ik_error"] = err[0]
+            local, P, err = self.poser.pose_one(raw)
+            frame["local_rotations"] = local
+            frame["positions"] = P
+            frame["ik_error"] = err
         return frame
 
     def _advance(self, command: Command, dt: float | None) -> dict:
@@ -411,136 +465,129 @@ class ProceduralController:
 
         # 3. CPG ------------------------------------------------------------
         theta_prev = self.theta
-        self.theta, self.r, self.theta_s, self.r_s = cpg_step(
-            self.theta, self.r, self.theta_s, self.r_s, np.asarray(omega), p.phases, dt, s.cpg)
+        c = s.cpg  # the compiled network step, one row (as the batch's N)
+        th, rr, ts, rs = cpg_step_rows(
+            np.array([self.theta]), np.array([self.r]), np.array([self.theta_s]),
+            np.array([self.r_s]), np.array([omega]), np.array([p.phases], dtype=float), dt,
+            c.mu, c.gain, c.coupling, c.spine_coupling, c.substeps)
+        theta, self.r = th[0].tolist(), rr[0].tolist()
+        self.theta_s, self.r_s = float(ts[0]), float(rs[0])
         # never let a phase run backwards (strong coupling at a start-up)
-        self.theta = np.maximum(self.theta, theta_prev)
+        theta = self.theta = [max(a, b) for a, b in zip(theta, theta_prev)]
 
         # 4. body on its path -------------------------------------------------
         # trapezoidal in speed and heading: exact for constant acceleration
         self.heading = self.heading + self.yaw_rate * dt
         k = 0.5 * (v_before + v) * dt  # heading_vector in scalar form
         mid_heading = self.heading - 0.5 * self.yaw_rate * dt
-        self.root_xz = self.root_xz + np.array([k * math.sin(mid_heading), k * 0.0,
-                                                k * math.cos(mid_heading)])
+        x, y, z = self.root_xz
+        self.root_xz = (x + k * math.sin(mid_heading), y + k * 0.0, z + k * math.cos(mid_heading))
         bend_target = min(max(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
                               -s.max_bend), s.max_bend)
         self.bend += (bend_target - self.bend) * (1.0 - math.exp(-dt / 0.2))
         keys, key_heading = self._key_points(self.root_xz, self.heading, self.bend)
 
-        # 5. feet ---------------------------------------------------------------
-        u = np.mod(self.theta / TWO_PI, 1.0)
+        # 5. feet: the compiled stage the batch runs (plan_kernels.feet_rows), one row
+        u = [(t / TWO_PI) % 1.0 for t in theta]
+        duty = p.duty
         # a foot landing now stays down until the duty factor it will end with:
         # during a transition towards a longer stance, plan for the longer one
         final = self.scheduler.target(self.scheduler.current, v)
-        stance_time = max(p.duty, min(final.duty, 1.0 - MIN_SWING)) / self.freq
-        trailing = self._trailing_room() < v * dt  # out of reach by the next frame
-        for i in range(4):
-            if self.stance[i]:
-                # lift off when the stride fraction passes the duty factor, unless
-                # too little of the stride is left for a real step (then the foot
-                # stays down for this stride: a duty factor near 1 is standing);
-                # a foot about to trail out of reach lifts at once (a reflex that
-                # only acts in transitions and starts)
-                due = p.duty <= u[i] <= 1.0 - MIN_SWING
-                if ((due or trailing[i]) and self.theta[i] - self.theta_td[i] > 1e-9):
-                    self.stance[i] = False
-                    self.liftoff[i] = self.planted[i]
-                    # lift-off at the moment the stride fraction crossed the duty
-                    # factor during this step (or now, if the duty factor fell)
-                    cross = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + p.duty)
-                    self.theta_lo[i] = cross if due and cross > theta_prev[i] else self.theta[i]
-                    td = TWO_PI * (math.floor(self.theta[i] / TWO_PI) + 1.0)
-                    if td - self.theta[i] < TWO_PI * MIN_SWING:
-                        td += TWO_PI  # too little left of this stride: land on the next
-                    self.theta_td[i] = td
-                    self.swing_s[i] = 0.0
-            if not self.stance[i]:
-                span = self.theta_td[i] - self.theta_lo[i]
-                sp = min(max(float((self.theta[i] - self.theta_lo[i]) / span), 0.0), 1.0)
-                self.swing_s[i] = max(self.swing_s[i], sp)
-        g = _GIRDLE
-        remaining = np.maximum(self.theta_td - self.theta, 0.0) / omega
+        reach = v * dt
+        girdles = self._girdle_frame(keys, key_heading)
+        trailing = [room < reach for room in self._trailing_room(girdles)]  # out of reach soon
         # land half a stance ahead of the girdle, but never beyond the leg's reach
-        half = np.interp(p.drop + s.vault, self.drops, self._sweep_min)
-        lead = min(0.5 * stance_time, self.settings.reach_margin * half / max(v, 1e-6))
-        tau = remaining + lead
-        kp, kh = arc_advance(keys[g], key_heading[g], v, self.yaw_rate, tau)
-        target = kp + rotate_y(self.foot_offset, kh)
-        target[:, Y] = 0.0
-        swinging = ~self.stance
-        step_len = np.linalg.norm(target - self.liftoff, axis=-1)
-        height = np.minimum(p.swing_height, 0.35 * step_len + 0.3 * p.swing_height)
-        pos = swing_position(self.liftoff, target, height, self.swing_s)
-        feet = np.where(swinging[:, None], pos, self.planted)
-        touch = swinging & (self.swing_s >= 1.0 - 1e-12)
-        if np.any(touch):
-            self.planted[touch] = target[touch]
-            feet[touch] = target[touch]
-            self.stance[touch] = True
-        self.feet = feet
-        fold_amount = np.where(self.stance, 0.0, np.sin(np.pi * self.swing_s) ** 2)
+        half = interp(p.drop + s.vault, self._drops_f, self._sweep_min_f)
+        fs = self._feet_state
+        feet_a = np.empty((1, 4, 3))
+        fold_a = np.empty((1, 4))
+        feet_rows(np.array([theta]), np.array([theta_prev]), np.array([duty]),
+                  np.array([final.duty]), np.array([self.freq]), np.array([v]),
+                  np.array([self.yaw_rate]), np.array([keys]), np.array([key_heading]),
+                  self._offset_1, np.array([trailing]), np.array([p.swing_height]),
+                  np.array([half]), s.reach_margin, fs["stance"], fs["swing_s"], fs["theta_lo"],
+                  fs["theta_td"], fs["planted"], fs["liftoff"], feet_a, fold_a)
+        stance = self.stance = fs["stance"][0].tolist()
+        self.planted = [tuple(f) for f in fs["planted"][0].tolist()]
+        feet = self.feet = [tuple(f) for f in feet_a[0].tolist()]
+        fold = fold_a[0].tolist()
 
         # 6. spine, height, tail --------------------------------------------------
-        fore_down = bool(self.stance[0] or self.stance[1])
-        hind_down = bool(self.stance[2] or self.stance[3])
-        state = spine_state(fore_down, hind_down)
-        tgt = float(spine_target(state, self.flexed, self.extended))
+        # the concave/convex machine: flexed while no hind foot is down
+        # (double flight, front stance), extended otherwise (spine_state)
+        tgt = self.extended if (stance[2] or stance[3]) else self.flexed
         rate = 5.0 * abs(self.flexed - self.extended) * self.freq
-        self.spine_angle = float(rate_limited(self.spine_angle, tgt, rate, dt))
-        bound_angle = self.spine_angle
-        slow_angle = float(flex_angle(self.theta_s, self.slow_scale * p.spine_amplitude))
-        raw = p.bound * bound_angle + (1.0 - p.bound) * slow_angle
+        self.spine_angle += min(max(tgt - self.spine_angle, -rate * dt), rate * dt)
+        slow_angle = self.slow_scale * p.spine_amplitude * math.sin(self.theta_s)
+        raw = p.bound * self.spine_angle + (1.0 - p.bound) * slow_angle
         self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.03))
-        support = np.where(self.stance, np.sin(np.pi * np.minimum(np.maximum(u / max(p.duty, 1e-3), 0), 1)), 0)
-        bob = 0.6 * p.drop * self.h * (0.5 - float(np.mean(support)))
+        sdut = max(duty, 1e-3)
+        support = [math.sin(math.pi * min(max(ui / sdut, 0), 1)) if down else 0.0
+                   for ui, down in zip(u, stance)]
+        bob = 0.6 * p.drop * self.h * (0.5 - sum(support) / 4)
         # vaulting: each girdle drops as far as its planted feet need
-        mid, fwd = self._girdle_frame(keys, key_heading)
-        along = np.einsum("ij,ij->i", self.feet - mid, fwd)
-        need = np.array([self.needed_drop(i, along[i]) if self.stance[i] else 0.0
-                         for i in range(4)])
-        drop_g = np.maximum(p.drop, [need[2:].max(), need[:2].max()])  # hind, fore
-        self.drops_now += (drop_g - self.drops_now) * (1.0 - math.exp(-dt / 0.04))
-        target_h = self.pelvis_height * (1.0 - self.drops_now[0]) + bob
-        self.height += (target_h - self.height) * (1.0 - math.exp(-dt / 0.04))
-        pitch = math.atan2((self.drops_now[1] - self.drops_now[0]) * self.pelvis_height,
-                           self.body_length)
+        mid, fwd = girdles
+        need = [0.0] * 4
+        for i in range(4):
+            if stance[i]:
+                f, m, w = feet[i], mid[i], fwd[i]
+                along = (f[0] - m[0]) * w[0] + (f[1] - m[1]) * w[1] + (f[2] - m[2]) * w[2]
+                need[i] = self.needed_drop(i, along)
+        drop_g = (max(p.drop, max(need[2], need[3])), max(p.drop, max(need[0], need[1])))
+        a = 1.0 - math.exp(-dt / 0.04)
+        d0, d1 = self.drops_now
+        d0, d1 = d0 + (drop_g[0] - d0) * a, d1 + (drop_g[1] - d1) * a
+        self.drops_now = [d0, d1]
+        target_h = self.pelvis_height * (1.0 - d0) + bob
+        self.height += (target_h - self.height) * a
+        pitch = math.atan2((d1 - d0) * self.pelvis_height, self.body_length)
         # girdle sway from where the left and right feet are (seed figure 5)
-        local = rotate_y(self.feet - keys[g], -key_heading[g])
-        width = np.maximum(np.abs(local[[0, 2], 0] - local[[1, 3], 0]), 1e-3)
-        sway = np.minimum(np.maximum(0.1 * np.arctan2(local[[0, 2], 2] - local[[1, 3], 2],
-                                                      width), -s.max_sway), s.max_sway)[::-1]
+        local = []
+        for i in range(4):
+            g = 1 if i < 2 else 0
+            kx, ky, kz = keys[g]
+            c, sn = math.cos(-key_heading[g]), math.sin(-key_heading[g])
+            fx, fz = feet[i][0] - kx, feet[i][2] - kz
+            local.append((c * fx + sn * fz, -sn * fx + c * fz))
+        sway = []
+        for left, right in ((2, 3), (0, 1)):  # hind, fore
+            width = max(abs(local[left][0] - local[right][0]), 1e-3)
+            sway.append(min(max(0.1 * math.atan2(local[left][1] - local[right][1], width),
+                                -s.max_sway), s.max_sway))
         # tail: each joint follows the one before with a lag
         n_tail = len(self.tail)
         if n_tail:
-            drive = np.array([0.6 * self.spine_smooth - 0.02 * v,
-                              -0.8 * self.bend - 0.5 * sway[0]]) / n_tail
+            prev = [(0.6 * self.spine_smooth - 0.02 * v) / n_tail,
+                    (-0.8 * self.bend - 0.5 * sway[0]) / n_tail]
             a = 1.0 - math.exp(-dt / s.tail_lag)
-            prev = np.vstack([drive, self.tail[:-1]])
-            self.tail = self.tail + a * (prev - self.tail)
+            tail = []
+            for t in self.tail:
+                tail.append([t[0] + a * (prev[0] - t[0]), t[1] + a * (prev[1] - t[1])])
+                prev = t
+            self.tail = tail
 
         self.time += dt
-        root = np.array([self.root_xz[0], self.height, self.root_xz[2]])
+        # the plan in plain floats and lists (step() makes arrays of it)
         return {
-            "root": root,
-            "heading": np.asarray(self.heading),
-            "pitch": np.asarray(pitch),
+            "root": [self.root_xz[0], self.height, self.root_xz[2]],
+            "heading": self.heading,
+            "pitch": pitch,
             "sway": sway,
-            "bend_yaw": np.asarray(self.bend),
-            "bend_pitch": np.asarray(self.spine_smooth),
-            "feet": self.feet.copy(),
-            "fold": fold_amount,
-            "toe": 0.5 * fold_amount,
-            "tail": self.tail.copy(),
-            "look": np.asarray(0.5 * self.bend),
-            "contacts": self.stance.copy(),
+            "bend_yaw": self.bend,
+            "bend_pitch": self.spine_smooth,
+            "feet": feet,
+            "fold": fold,
+            "toe": [0.5 * f for f in fold],
+            "tail": self.tail,
+            "look": 0.5 * self.bend,
+            "contacts": list(stance),
             "gait": self.scheduler.label,
-            "phase": np.mod(self.theta / TWO_PI, 1.0),
-            "speed": np.asarray(v),
-            "duty": np.asarray(p.duty),
-            "spine": np.asarray(self.spine_smooth),
-            "heading_rate": np.asarray(self.yaw_rate),
-            "amplitude": np.append(self.r, self.r_s),
+            "phase": u,
+            "speed": v,
+            "duty": duty,
+            "spine": self.spine_smooth,
+            "heading_rate": self.yaw_rate,
+            "amplitude": self.r + [self.r_s],
         }
 
     def pose(self, plans: dict[str, np.ndarray]):
@@ -548,18 +595,31 @@ class ProceduralController:
         return self.poser.pose(plans)
 
 
-#: the plan fields the posing reads
-_POSE_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
-              "toe", "tail", "look")
-
 _ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
                "toe", "tail", "look", "contacts", "phase", "speed", "duty", "spine",
                "heading_rate", "amplitude")
 
 
 def stack_plans(plans: list[dict]) -> dict[str, np.ndarray]:
-    """Stack per-frame plans into arrays with a leading frame axis."""
-    out = {k: np.stack([np.asarray(pl[k]) for pl in plans]) for k in _ARRAY_KEYS}
+    """Stack per-frame plans (arrays, or the plain lists of a raw plan) into
+    arrays with a leading frame axis."""
+    T = len(plans)
+    out = {}
+    for k in _ARRAY_KEYS:
+        first = plans[0][k] if T else 0.0
+        shape = np.shape(first)
+        dtype = bool if k == "contacts" else float
+        if isinstance(first, np.ndarray) or not shape:
+            out[k] = np.array([pl[k] for pl in plans], dtype=dtype).reshape((T,) + shape)
+            continue
+        # nested lists: flatten level by level and read them in one pass
+        flat = (pl[k] for pl in plans)
+        for _ in shape:
+            flat = chain.from_iterable(flat)
+        out[k] = np.fromiter(flat, dtype=dtype, count=T * math.prod(shape)).reshape(
+            (T,) + shape)
+    n_tail = len(plans[0]["tail"]) if plans else 0
+    out["tail"] = out["tail"].reshape(T, n_tail, 2)
     out["gait"] = np.array([pl["gait"] for pl in plans], dtype=object)
     return out
 
@@ -599,8 +659,9 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
     # frame 0 is the starting state; frame k follows k steps of dt
-    plans = [ctl.step(first, 0.0, pose=False)]
-    plans += [ctl.step(script.command_at((k - 1) * dt), dt, pose=False) for k in range(1, n)]
+    # (the plain-float plans of _advance, stacked once: no per-frame arrays)
+    plans = [ctl._advance(first, 0.0)]
+    plans += [ctl._advance(script.command_at((k - 1) * dt), dt) for k in range(1, n)]
     plan = stack_plans(plans)
     local, root, err = ctl.pose(plan)
     return Motion(

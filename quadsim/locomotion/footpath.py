@@ -38,6 +38,11 @@ def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
     rows = np.arange(Pb.shape[0])
     i = i.reshape(-1)
     p0, p1, p2, p3 = (Pb[rows, i + k].reshape(s.shape + (3,)) for k in range(4))
+    return _segment(p0, p1, p2, p3, t)
+
+
+def _segment(p0, p1, p2, p3, t):
+    """Uniform Catmull-Rom segment from ``p1`` to ``p2`` at ``t`` in [0, 1]."""
     t2, t3 = t * t, t * t * t
     return 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
                   + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
@@ -81,5 +86,21 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
 
 
 def swing_position(liftoff, touchdown, height, s) -> np.ndarray:
-    """Foot position along its swing path at progress ``s`` in [0, 1], shape (..., 3)."""
-    return catmull_rom(swing_control_points(liftoff, touchdown, height), s)
+    """Foot position along its swing path at progress ``s`` in [0, 1], shape (..., 3).
+
+    ``catmull_rom(swing_control_points(liftoff, touchdown, height), s)``,
+    building only the four control points of each point's segment.
+    """
+    a = np.asarray(liftoff, dtype=float)
+    b = np.asarray(touchdown, dtype=float)
+    h = np.asarray(height, dtype=float)
+    s = np.asarray(s, dtype=float)
+    batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape)
+    s = np.broadcast_to(np.minimum(np.maximum(s, 0.0), 1.0), batch)
+    nseg = len(SWING_KNOTS) - 3
+    x = s * nseg
+    i = np.minimum(np.floor(x).astype(int), nseg - 1)
+    knots = SWING_KNOTS[i[..., None] + np.arange(4)]  # (..., 4, 2)
+    P = (a[..., None, :] + knots[..., :1] * (b - a)[..., None, :]
+         + knots[..., 1:] * (h[..., None, None] * UP))
+    return _segment(P[..., 0, :], P[..., 1, :], P[..., 2, :], P[..., 3, :], (x - i)[..., None])

@@ -2,21 +2,23 @@
 
 The controller decides, per frame, where the pelvis is, how the back bends,
 where each foot must be and how folded each swinging leg is (a *plan*). This
-module turns plans into local joint rotations, vectorised over any number
-of frames at once: the spine, neck and tail are set directly, forward
-kinematics gives each leg's girdle, and the leg IK places the feet.
+module turns plans into local joint rotations and world joint positions,
+for any number of frames (or characters of one kind) at once, with one
+compiled kernel (:mod:`quadsim.locomotion.pose_kernel`): the spine, neck and
+tail are set directly, forward kinematics gives each leg's girdle, the leg
+IK places the feet, and forward kinematics of the whole skeleton follows.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from quadsim.kinematics.ik import LegGeometry, leg_geometry, solve_leg, stack_leg_geometries
-from quadsim.kinematics.rotations import matrices_about_axis
+from quadsim.kinematics.ik import LegGeometry, leg_geometry
+from quadsim.locomotion.pose_kernel import pack_legs, pack_plan, plan_columns, pose_rows
 from quadsim.skeleton.character import Character
-from quadsim.skeleton.fk import forward_kinematics
 
 #: Plan fields and their per-frame shapes (T leading).
 PLAN_FIELDS = {
@@ -38,25 +40,28 @@ PLAN_FIELDS = {
 class Poser:
     """Precomputed posing data for one character.
 
-    ``groups`` gathers the legs the IK solves together, as one stacked
-    geometry each (:func:`~quadsim.kinematics.ik.stack_leg_geometries`):
-    legs with the same number of bones, pair bone and joint limits' use
-    (a left leg and its right partner, or all four), with their leg indices.
+    ``legs`` holds each leg's IK geometry (LF, RF, LH, RH); ``trunk`` the
+    joints the legs hang from and the thorax, with their ancestors
+    (increasing): all the first forward kinematics pass needs. The posing
+    itself is the compiled :func:`~quadsim.locomotion.pose_kernel.pose_rows`.
     """
 
     character: Character
     legs: tuple[LegGeometry, ...]
-    groups: tuple[tuple[np.ndarray, LegGeometry], ...] = ()
+    trunk: np.ndarray | None = None
 
     @classmethod
     def for_character(cls, character: Character) -> Poser:
         legs = tuple(leg_geometry(character, leg) for leg in character.legs)
-        keys: dict[tuple, list[int]] = {}
-        for i, g in enumerate(legs):
-            keys.setdefault((g.n_bones, g.pair, g.limited), []).append(i)
-        groups = tuple((np.array(idx), stack_leg_geometries([legs[i] for i in idx]))
-                       for idx in keys.values())
-        return cls(character, legs, groups)
+        # the trunk: the joints the legs hang from and the thorax, with their ancestors
+        sk = character.skeleton
+        need = {int(g.parent) for g in legs} | {int(character.spine[-1])}
+        trunk = set()
+        for j in need:
+            while j >= 0 and j not in trunk:
+                trunk.add(j)
+                j = int(sk.parents[j]) if j else -1
+        return cls(character, legs, np.array(sorted(trunk)))
 
     def pose(self, plan: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Local rotations for plans of T frames.
@@ -65,55 +70,80 @@ class Poser:
         ----------
         plan : dict
             Arrays with the shapes of :data:`PLAN_FIELDS`, each with a
-            leading frame axis T.
+            leading frame axis T (``tail`` may carry extra zero-padded joints).
 
         Returns
         -------
         local : ndarray, shape (T, J, 3, 3)
         root : ndarray, shape (T, 3)
+            Pelvis world position (m).
         ik_error : ndarray, shape (T, 4)
             Distance between each foot target and the foot reached (m).
         """
+        rows = pack_plan(plan, len(self.character.tail))
+        local, _, err = self.pose_packed(rows)
+        return local, rows[:, :3].copy(), err
+
+    def pose_packed(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pose packed plans (:func:`~quadsim.locomotion.pose_kernel.pack_plan`)
+        with the compiled kernel.
+
+        Parameters
+        ----------
+        rows : ndarray, shape (T, F)
+            F at least :func:`~quadsim.locomotion.pose_kernel.plan_columns`
+            of the character's tail (extra columns are ignored).
+
+        Returns
+        -------
+        local : ndarray, shape (T, J, 3, 3)
+        positions : ndarray, shape (T, J, 3)
+            World position of every joint (m).
+        ik_error : ndarray, shape (T, 4)
+            Distance between each foot target and the foot reached (m).
+        """
+        width = plan_columns(len(self.character.tail))
+        if rows.ndim != 2 or rows.shape[1] < width:  # the kernel does not check bounds
+            raise ValueError(f"`rows` has shape {rows.shape}, expected (T, >= {width})")
+        T = rows.shape[0]
+        J = self.character.skeleton.n_joints
+        local = np.empty((T, J, 3, 3))
+        positions = np.empty((T, J, 3))
+        err = np.empty((T, 4))
+        pose_rows(np.ascontiguousarray(rows, dtype=float), *self._kernel_args,
+                  local, positions, err)
+        return local, positions, err
+
+    def pose_one(self, plan: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`pose_packed` of one frame's plan in plain floats and lists
+        (the interactive step's raw plan).
+
+        Returns
+        -------
+        local : ndarray, shape (J, 3, 3)
+        positions : ndarray, shape (J, 3)
+            World position of every joint (m).
+        ik_error : ndarray, shape (4,)
+        """
+        feet = plan["feet"]
+        vals = [*plan["root"], plan["heading"], plan["pitch"], *plan["sway"],
+                plan["bend_yaw"], plan["bend_pitch"], *feet[0], *feet[1], *feet[2], *feet[3],
+                *plan["fold"], *plan["toe"], plan["look"]]
+        for pitch_yaw in plan["tail"]:
+            vals.extend(pitch_yaw)
+        local, positions, err = self.pose_packed(np.array(vals, dtype=float)[None])
+        return local[0], positions[0], err[0]
+
+    @cached_property
+    def _kernel_args(self) -> tuple:
+        """The character's constants as :func:`pose_rows` takes them."""
         ch = self.character
         sk = ch.skeleton
-        root = np.asarray(plan["root"], dtype=float)
-        T = root.shape[0]
-        J = sk.n_joints
-        L = np.broadcast_to(np.eye(3), (T, J, 3, 3)).copy()
-        rx = lambda a: matrices_about_axis(0, a)
-        ry = lambda a: matrices_about_axis(1, a)
+        trunk = self.trunk if self.trunk is not None else np.arange(sk.n_joints)
 
-        spine = ch.spine[1:]
-        K = len(spine)
-        flex = plan["bend_pitch"]
-        sway = plan["sway"]
-        # pelvis: heading plus hind sway, tilted back by half the flexion
-        L[:, 0] = ry(plan["heading"] + sway[:, 0]) @ rx(plan["pitch"] - 0.5 * flex)
-        per_yaw = plan["bend_yaw"][:, None] / K * np.ones(K)
-        per_pitch = flex[:, None] / K * np.ones(K)
-        per_yaw[:, 0] -= sway[:, 0]
-        per_yaw[:, -1] += sway[:, 1]
-        L[:, spine] = ry(per_yaw) @ rx(per_pitch)
+        def ints(x):  # fresh writable copies: one compiled signature for every character
+            return np.array(x, dtype=np.int64)
 
-        # tail: lagged angles computed by the controller
-        if len(ch.tail):
-            tail = np.asarray(plan["tail"])
-            L[:, ch.tail] = ry(tail[..., 1]) @ rx(tail[..., 0])
-
-        G, P = forward_kinematics(sk, L, root)
-        # neck and head: keep the head level, look into the turn
-        if len(ch.neck):
-            thorax = G[:, ch.spine[-1]]
-            fwd = thorax[:, :, 2]
-            pitch = np.arcsin(np.minimum(np.maximum(-fwd[:, 1], -1), 1))  # nose-down positive
-            n = len(ch.neck)
-            L[:, ch.neck] = (ry(plan["look"][:, None] / n * np.ones(n))
-                             @ rx(-pitch[:, None] / n * np.ones(n)))
-
-        err = np.zeros((T, 4))
-        for idx, geom in self.groups:
-            local, err[:, idx] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
-                                           plan["feet"][:, idx], plan["fold"][:, idx],
-                                           plan["toe"][:, idx])
-            L[:, geom.chain] = local
-        return L, root, err
+        return (ints(sk.parents), np.array(sk.offsets, dtype=float),
+                ints(ch.spine[1:]), ints(ch.tail), ints(ch.neck), ints(trunk),
+                int(ch.spine[-1]), *pack_legs(self.legs))

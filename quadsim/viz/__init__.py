@@ -12,6 +12,8 @@ importing :mod:`quadsim.viz` is cheap.
   cameras) shared by the preview and the renderer.
 - :mod:`quadsim.viz.preview`: :class:`Preview`, steering a controller live
   in a window.
+- :mod:`quadsim.viz.live`: the one interface the preview steps both
+  controllers through (procedural, and the data-driven horse).
 - :mod:`quadsim.viz.render`: :func:`render_video` to ``.mp4`` or ``.gif``
   off screen.
 """

@@ -1,9 +1,16 @@
 """Steer a character live in a pyvista window.
 
-:class:`Preview` steps a :class:`~quadsim.locomotion.ProceduralController`
-in real time, poses the body, scrolls the ground under it and follows it with
-the camera. Its two working parts are plain methods, so they can be driven
-and tested without a window or an event loop:
+:class:`Preview` steps a controller in real time, poses the body, scrolls the
+ground under it and follows it with the camera. The controller is the
+procedural one (:class:`~quadsim.locomotion.ProceduralController`, every
+character) or, in the data mode (a config's ``mode = "data"``, or
+``Preview(..., mode="data")``), the data-driven horse
+(:class:`~quadsim.horse.controller.HorseDataController`); both are stepped
+through the same small interface (:mod:`quadsim.viz.live`), so the keys, the
+text and the recording work alike. In the data mode the ground grid follows
+the controller's sloped ground (a config's ``slope_deg`` commands). Its two
+working parts are plain methods, so they can be driven and tested without a
+window or an event loop:
 
 - :meth:`Preview.on_key` handles a key by its name (VTK key symbols:
   ``"Up"``, ``"Left"``, ``"space"``, ``"3"``, ``"p"``);
@@ -16,11 +23,13 @@ timer events. Keys:
 =============  ==============================================================
 Up / Down      faster / slower (one speed step)
 Left / Right   turn left / right (the wanted heading moves 15 degrees)
-1 ... 9        hold a gait, in the character's gait order, at its preferred
-               speed (``quadsim characters`` lists the order)
+1 ... 9        hold a gait at its preferred speed: procedural mode, in the
+               character's gait order (``quadsim characters`` lists it);
+               data mode, the clip database's gaits (the horse: walk, amble,
+               trot, rack, canter, gallop), at the mean of their clips' speeds
 0              gaits chosen by speed again
-Space          request a leap (stored and passed on; only the data-driven
-               horse mode, still to come, acts on it)
+Space          leap: the data mode goes to the leap's gallop, leaps once and
+               comes back; the procedural mode has no leap and ignores it
 P              pause / resume
 R              start / stop recording; on stop the recorded frames are
                written as a BVH file
@@ -34,7 +43,6 @@ the first steering key; from then on the keys steer.
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 import sys
@@ -44,9 +52,10 @@ from pathlib import Path
 import numpy as np
 
 from quadsim.frames import wrap_angle
+from quadsim.viz.live import MODES, live_controller
 from quadsim.viz.scene import display_available
 
-__all__ = ["HELP", "Preview", "display_available"]
+__all__ = ["HELP", "LEAP_HELP", "Preview", "display_available", "resolve_source"]
 
 HELP = """\
 Up / Down      faster / slower
@@ -54,10 +63,16 @@ Left / Right   turn left / right (15 deg a press)
 1-{n}            hold a gait:
                {gaits}
 0              gaits chosen by speed
-Space          leap request (stored for the data-driven horse
-               mode, coming; the procedural mode ignores it)
+Space          {leap}
 P              pause        R  start / stop recording (BVH)
 H              this help    Q  quit"""
+
+#: The Space line of :data:`HELP` in each mode.
+LEAP_HELP = {
+    "data": "leap (to a gallop, one leap, back)",
+    "procedural": "leap: data mode only (--mode data, the horse);\n"
+                  "               ignored in the procedural mode",
+}
 
 #: Most controller steps one update may take (slower frames drop time).
 MAX_STEPS_PER_UPDATE = 8
@@ -67,23 +82,30 @@ TURN_STEP = math.radians(15.0)
 HUD_INTERVAL = 0.1
 
 
-def _resolve(source):
-    """(character, script or None, seed) from a Character, RunConfig, id or config path."""
+def resolve_source(source):
+    """What a preview of ``source`` shows: ``(character, script or None, seed, mode or None)``.
+
+    Parameters
+    ----------
+    source : Character, RunConfig, or str
+        A character, a run configuration, a character identifier, a config
+        file path or a character file path.
+    """
     from quadsim.config import RunConfig, load_config
     from quadsim.skeleton.character import Character, load_character
 
     if isinstance(source, Character):
-        return source, None, 0
+        return source, None, 0, None
     if isinstance(source, RunConfig):
-        return source.load_character(), source.commands, source.seed
+        return source.load_character(), source.commands, source.seed, source.mode
     text = str(source)
     if text.endswith(".toml") and Path(text).is_file():
         try:
             cfg = load_config(text)
         except ValueError:
-            return load_character(text), None, 0  # a character file
-        return cfg.load_character(), cfg.commands, cfg.seed
-    return load_character(text), None, 0
+            return load_character(text), None, 0, None  # a character file
+        return cfg.load_character(), cfg.commands, cfg.seed, cfg.mode
+    return load_character(text), None, 0, None
 
 
 class Preview:
@@ -94,6 +116,9 @@ class Preview:
     source : Character, RunConfig, or str
         A character, a run configuration (its commands play until the first
         steering key), a character identifier or a config file path.
+    mode : {"procedural", "data"}, optional
+        The controller: default the config's ``mode``, else procedural.
+        ``"data"`` needs a character with a clip database (the horse).
     size : (int, int) or str
         Window size in pixels (``(960, 640)`` or ``"960x640"``).
     off_screen : bool
@@ -108,7 +133,18 @@ class Preview:
 
     Attributes
     ----------
-    controller : ProceduralController
+    mode : str
+        ``"procedural"`` or ``"data"``.
+    live : LiveController
+        The controller's adapter (:mod:`quadsim.viz.live`).
+    controller : ProceduralController or HorseDataController
+        The controller itself.
+    gaits : dict of str to Gait
+        The character's (procedural) gait table.
+    gait_order : list of str
+        The gaits of the number keys 1, 2, ...
+    max_speed : float
+        Fastest speed the keys ask for (m/s).
     scene : Scene
     speed_command : float
         Wanted speed (m/s).
@@ -116,6 +152,9 @@ class Preview:
         Wanted heading (rad).
     gait_command : str or None
         Held gait (None: chosen by speed).
+    slope_command : float
+        Ground slope passed on (rad; data mode): the config's, held when the
+        keys take over.
     paused, recording, show_help : bool
     leap_requested : bool
         A leap was asked for and not yet passed to the controller.
@@ -123,27 +162,34 @@ class Preview:
         The BVH file the last recording went to.
     message : str
         The last event, shown on screen.
+
+    Raises
+    ------
+    InputError
+        An unknown ``mode``, or ``"data"`` for a character without a clip
+        database.
     """
 
-    def __init__(self, source, *, size=(960, 640), off_screen: bool = False,
-                 camera: str = "follow", dt: float = 1.0 / 60.0, seed: int | None = None,
-                 record_dir: str | os.PathLike = "out"):
-        from quadsim.locomotion import ProceduralController
+    def __init__(self, source, *, mode: str | None = None, size=(960, 640),
+                 off_screen: bool = False, camera: str = "follow", dt: float = 1.0 / 60.0,
+                 seed: int | None = None, record_dir: str | os.PathLike = "out"):
         from quadsim.locomotion.gaits import gait_table
         from quadsim.viz.body import BodyMesh
         from quadsim.viz.scene import Scene
 
-        character, script, cfg_seed = _resolve(source)
+        character, script, cfg_seed, cfg_mode = resolve_source(source)
+        self.mode = str(mode or cfg_mode or MODES[0])
         self.character = character
         self.script = script
         self.dt = float(dt)
         first = script.commands[0] if script is not None else None
-        self.controller = ProceduralController(
-            character, dt=self.dt, seed=cfg_seed if seed is None else int(seed),
-            gait=first.gait if first is not None else None)
+        self.live = live_controller(
+            character, self.mode, dt=self.dt, seed=cfg_seed if seed is None else int(seed),
+            gait=first.gait if first is not None and self.mode == "procedural" else None)
+        self.controller = self.live.controller
         self.gaits = gait_table(character)
-        self.gait_order = list(character.locomotion.get("gaits", list(self.gaits)))[:9]
-        self.max_speed = float(self.controller.max_speed)
+        self.gait_order = list(self.live.gait_order)
+        self.max_speed = float(self.live.max_speed)
         self.speed_step = max(0.05, round(self.max_speed / 24.0, 2))
         self.record_dir = Path(record_dir)
         self.body = BodyMesh.from_character(character)
@@ -153,10 +199,11 @@ class Preview:
         self.plotter = self.scene.plotter
 
         self.manual = script is None
-        walk = self.gaits[self.controller.auto[0]]
-        self.speed_command = float(first.speed) if first is not None else walk.preferred_speed
+        self.speed_command = (float(first.speed) if first is not None
+                              else self.live.preferred_speed(self.live.auto_gaits[0]))
         self.heading_command = 0.0
         self.gait_command = first.gait if first is not None else None
+        self.slope_command = float(first.slope) if first is not None else 0.0
         self.paused = False
         self.recording = False
         self.show_help = False
@@ -170,22 +217,14 @@ class Preview:
         self._last_wall: float | None = None
         self._tick: float | None = None
         self._hud_wall = -1.0
-        self._rec_local: list[np.ndarray] = []
-        self._rec_root: list[np.ndarray] = []
-        self._rec_plans: list[dict] = []
+        self._rec: list = []
 
         # one corner annotation: the status upper left, the help lower left
         self._text = self.plotter.add_text(" ", position="upper_left", font_size=12,
                                            color="#1d2a36", font="courier",
                                            name="quadsim-hud")
-        try:
-            params = inspect.signature(self.controller.step).parameters
-        except (TypeError, ValueError):
-            params = {}
-        self._step_kw = {"pose": False} if "pose" in params else {}
         # frame 0: the starting state (as simulate does)
-        plan = self.controller.step(self.command(), 0.0, **self._step_kw)
-        self._show([plan], record=False)
+        self._show([self.live.step(self.command(), 0.0)], record=False)
         self.scene.rig.reset()
         self.scene.update_camera(0.0)
         self._update_text(force=True)
@@ -198,18 +237,18 @@ class Preview:
 
     @property
     def gait(self) -> str:
-        """The controller's gait label (``"trot"``, ``"walk->trot"``)."""
-        return str(self.controller.scheduler.label)
+        """The controller's gait label (``"trot"``, ``"walk->trot"``, ``"leap"``, ``"stand"``)."""
+        return self.live.gait
 
     @property
     def speed(self) -> float:
         """The controller's speed (m/s)."""
-        return float(self.controller.speed)
+        return self.live.speed
 
     @property
     def heading(self) -> float:
         """The controller's heading (rad)."""
-        return float(self.controller.heading)
+        return self.live.heading
 
     @property
     def world_positions(self) -> np.ndarray:
@@ -218,7 +257,8 @@ class Preview:
 
     @property
     def recorded_frames(self) -> int:
-        return len(self._rec_root)
+        """Controller steps recorded so far."""
+        return len(self._rec)
 
     def command(self):
         """The :class:`~quadsim.locomotion.commands.Command` the next step will get."""
@@ -232,7 +272,8 @@ class Preview:
                 c = replace(c, leap=True)
             return c
         return Command(speed=self.speed_command, heading=self.heading_command,
-                       gait=self.gait_command, leap=self.leap_requested)
+                       gait=self.gait_command, leap=self.leap_requested,
+                       slope=self.slope_command)
 
     def _take_control(self) -> None:
         """Leave the config's script: the keys steer from the current state."""
@@ -242,11 +283,12 @@ class Preview:
         self.speed_command = float(c.speed)
         self.gait_command = c.gait
         self.heading_command = float(c.heading) if c.heading is not None else self.heading
+        self.slope_command = float(c.slope)
         self.manual = True
 
     def _speed_cap(self) -> float:
         if self.gait_command:
-            return min(self.max_speed, self.controller.gait_speed_cap(self.gait_command))
+            return min(self.max_speed, self.live.gait_speed_cap(self.gait_command))
         return self.max_speed
 
     # ---------------------------------------------------------------- keys
@@ -286,15 +328,18 @@ class Preview:
                 self._take_control()
                 g = self.gait_order[k - 1]
                 self.gait_command = g
-                self.speed_command = float(self.gaits[g].preferred_speed)
+                self.speed_command = float(self.live.preferred_speed(g))
                 self.message = (f"gait {g.replace('_', ' ')} at "
                                 f"{self.speed_command:.2f} m/s")
             else:
                 return False
         elif low in ("space", " "):
             self.leap_requested = True
-            self.message = ("leap requested (for the data-driven horse mode, coming; "
-                            "the procedural mode ignores it)")
+            if self.mode == "data":
+                self.message = "leap: to a gallop, one leap, then back"
+            else:
+                self.message = ("leap requested: the procedural mode has none (the horse's "
+                                "data mode leaps: --mode data)")
         elif low == "p":
             self.paused = not self.paused
             self.message = "paused" if self.paused else "running"
@@ -317,22 +362,27 @@ class Preview:
     def start_recording(self) -> None:
         """Record every controller step from now on."""
         self.recording = True
-        self._rec_local, self._rec_root, self._rec_plans = [], [], []
+        self._rec = []
 
     def recorded_motion(self):
-        """The frames recorded so far as a :class:`~quadsim.skeleton.motion.Motion` (or None)."""
-        from quadsim.locomotion.controller import stack_plans
+        """The frames recorded so far as a :class:`~quadsim.skeleton.motion.Motion` (or None).
+
+        It has the steps' contacts, gait labels and per-frame extras
+        (procedural: ``phase``, ``spine``, ``duty``, ``speed``, ``heading``;
+        data: ``heading``, ``pitch``, ``ground``).
+        """
         from quadsim.skeleton.motion import Motion
 
-        if not self._rec_root:
+        if not self._rec:
             return None
-        plan = stack_plans(self._rec_plans)
+        fr = self._rec
+        extras = {k: np.stack([f.extras[k] for f in fr]) for k in fr[0].extras}
         return Motion.from_matrices(
-            self.character.skeleton, 1.0 / self.dt, np.stack(self._rec_root),
-            np.stack(self._rec_local), contacts=plan["contacts"], gaits=plan["gait"],
-            foot_joints=self.character.foot_joints,
-            extras={"phase": plan["phase"], "spine": plan["spine"], "duty": plan["duty"],
-                    "speed": plan["speed"], "heading": plan["heading"]})
+            self.character.skeleton, 1.0 / self.dt, np.stack([f.root for f in fr]),
+            np.stack([f.local_rotations for f in fr]),
+            contacts=np.stack([f.contacts for f in fr]),
+            gaits=np.array([f.gait for f in fr], dtype=object),
+            foot_joints=self.character.foot_joints, extras=extras)
 
     def stop_recording(self, path: str | os.PathLike | None = None) -> Path | None:
         """Stop recording and write the frames as BVH.
@@ -351,7 +401,7 @@ class Preview:
 
         self.recording = False
         motion = self.recorded_motion()
-        self._rec_local, self._rec_root, self._rec_plans = [], [], []
+        self._rec = []
         if motion is None:
             return None
         if path is None:
@@ -397,45 +447,45 @@ class Preview:
             else:
                 self._acc = max(self._acc - n * self.dt, 0.0)
             if n:
-                plans = []
+                frames = []
                 for _ in range(n):
-                    plans.append(self.controller.step(self.command(), self.dt,
-                                                      **self._step_kw))
+                    frames.append(self.live.step(self.command(), self.dt))
                     self.leap_requested = False
                     self.time += self.dt
                 self.steps += n
-                self._show(plans, record=self.recording)
+                self._show(frames, record=self.recording)
         self.scene.update_camera(dt)
         self._update_text()
         return n
 
-    def _show(self, plans: list[dict], record: bool) -> None:
-        from quadsim.locomotion.controller import stack_plans
-        from quadsim.skeleton.fk import forward_kinematics
-
-        local, root, _ = self.controller.pose(stack_plans(plans))
+    def _show(self, frames: list, record: bool) -> None:
         if record:
-            self._rec_local.extend(local)
-            self._rec_root.extend(root)
-            self._rec_plans.extend(plans)
-        G, P = forward_kinematics(self.character.skeleton, local[-1], root[-1])
+            self._rec.extend(frames)
+        G, P = frames[-1].world()
         self._P = P
-        self.scene.set_pose(G, P, float(plans[-1]["heading"]))
+        self.scene.set_pose(G, P, frames[-1].heading, ground=self.live.ground)
 
     def _update_text(self, force: bool = False) -> None:
         now = time.perf_counter()
         if not force and now - self._hud_wall < HUD_INTERVAL:
             return
         self._hud_wall = now
-        held = (self.gait_command.replace("_", " ") + " held") if self.gait_command else "auto"
+        cmd = self.command()
+        held = (cmd.gait.replace("_", " ") + " held") if cmd.gait else "auto"
         mode = "keys" if self.manual else "config script (a steering key takes over)"
+        if cmd.heading is not None:
+            turn = f"wanted {math.degrees(wrap_angle(cmd.heading)):+.0f}"
+        else:
+            turn = f"turning {math.degrees(cmd.turn_rate or 0.0):+.0f} deg/s"
         lines = [
-            f"{self.character.name}   gait {self.gait.replace('_', ' ')} ({held})",
-            f"speed {self.speed:5.2f} m/s  (wanted {self.speed_command:.2f})",
-            (f"heading {math.degrees(wrap_angle(self.heading)):+5.0f} deg"
-             f"  (wanted {math.degrees(wrap_angle(self.heading_command)):+.0f})"),
+            f"{self.character.name} ({self.mode})   gait {self.gait.replace('_', ' ')} ({held})",
+            f"speed {self.speed:5.2f} m/s  (wanted {cmd.speed:.2f})",
+            f"heading {math.degrees(wrap_angle(self.heading)):+5.0f} deg  ({turn})",
             f"{self.fps:4.0f} fps   t {self.time:6.1f} s   {mode}",
         ]
+        ground = self.live.ground
+        if ground is not None:
+            lines.insert(3, f"ground slope {math.degrees(ground.slope):+.1f} deg")
         if self.paused:
             lines.append("PAUSED (P resumes)")
         if self.recording:
@@ -445,7 +495,8 @@ class Preview:
             items = [f"{i + 1} {g.replace('_', ' ')}" for i, g in enumerate(self.gait_order)]
             names = "\n               ".join(", ".join(items[k:k + 3])
                                                for k in range(0, len(items), 3))
-            help_text = HELP.format(n=len(self.gait_order), gaits=names)
+            help_text = HELP.format(n=len(self.gait_order), gaits=names,
+                                    leap=LEAP_HELP[self.mode])
         else:
             help_text = "H: help"
         self._text.SetText(2, "\n".join(lines))

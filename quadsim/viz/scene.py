@@ -5,7 +5,9 @@ A :class:`Scene` holds one :class:`pyvista.Plotter` with
 - the character's :class:`~quadsim.viz.body.BodyMesh` (one actor, posed in
   place each frame),
 - a ground plane and grid that follow the character in whole grid cells, so
-  the lines stay fixed in the world and scroll under it,
+  the lines stay fixed in the world and scroll under it; given a height field
+  (the data-driven horse's sloped :class:`~quadsim.horse.slope.Ground`), the
+  plane and the grid follow its heights, sampled at a quarter of a grid cell,
 - a soft blob shadow under the body,
 - a :class:`CameraRig`: ``"follow"`` (behind and to the left, turning with
   the heading), ``"side"`` (from the character's left) or ``"top"``.
@@ -27,6 +29,9 @@ __all__ = ["CAMERAS", "CameraRig", "Scene", "display_available", "grid_spacing",
 
 #: Camera modes.
 CAMERAS = ("follow", "side", "top")
+#: Samples per grid cell of a sloped ground: a crease between two ramps is
+#: drawn at most ``spacing / GROUND_SUB / 4 * tan(slope)`` off.
+GROUND_SUB = 4
 SKY = "#dfe8ef"
 GROUND = "#c9c3b3"
 GRID = "#9d9684"
@@ -100,8 +105,19 @@ class CameraRig:
         """Snap to the body on the next update."""
         self._target = None
 
-    def update(self, root, heading: float, dt: float):
+    def update(self, root, heading: float, dt: float, floor: float = 0.0):
         """Camera position, focal point and view-up for the body centred at ``root`` (3,).
+
+        Parameters
+        ----------
+        root : array-like, shape (3,)
+        heading : float
+            The body's heading (rad).
+        dt : float
+            Time since the last update (s).
+        floor : float
+            Height of the ground under the body (m): the camera aims that
+            much higher.
 
         Returns
         -------
@@ -109,7 +125,8 @@ class CameraRig:
         """
         root = np.asarray(root, dtype=float)
         s = self.scale
-        want = np.array([root[X], (0.6 if self.mode == "side" else 0.75) * s, root[Z]])
+        want = np.array([root[X], (0.6 if self.mode == "side" else 0.75) * s + float(floor),
+                         root[Z]])
         if self._target is None:
             self._heading = float(heading)
         elif self.lag > 0:
@@ -193,7 +210,7 @@ class Scene:
         import pyvista as pv
 
         self.spacing = grid_spacing(self.scale)
-        n = 24
+        n = self._cells = 24
         half = n * self.spacing
         plane = pv.Plane(center=(0.0, -0.002 * self.scale, 0.0), direction=(0.0, 1.0, 0.0),
                          i_size=2 * half, j_size=2 * half, i_resolution=1, j_resolution=1)
@@ -213,6 +230,59 @@ class Scene:
                                                   reset_camera=False)
         self.grid_actor = self.plotter.add_mesh(grid, color=GRID, line_width=1,
                                                 reset_camera=False, lighting=False)
+        self._relief = None          # the sloped ground's meshes, built on first use
+        self._relief_key = None
+        self._floor = 0.0
+
+    def _build_relief(self) -> None:
+        """Finer ground plane and grid lines (:data:`GROUND_SUB` samples a cell) whose
+        heights follow a height field."""
+        import pyvista as pv
+
+        n, s, k = self._cells, self.spacing, GROUND_SUB
+        half = n * s
+        plane = pv.Plane(center=(0.0, 0.0, 0.0), direction=(0.0, 1.0, 0.0),
+                         i_size=2 * half, j_size=2 * half, i_resolution=2 * n * k,
+                         j_resolution=2 * n * k)
+        ticks = np.arange(-n, n + 1) * s
+        along = np.linspace(-half, half, 2 * n * k + 1)
+        m, q = len(ticks), len(along)
+        pts = np.zeros((2 * m, q, 3))
+        pts[:m, :, X] = ticks[:, None]
+        pts[:m, :, Z] = along[None, :]
+        pts[m:, :, Z] = ticks[:, None]
+        pts[m:, :, X] = along[None, :]
+        pts = pts.reshape(-1, 3)
+        idx = np.arange(2 * m * q).reshape(2 * m, q)
+        segs = np.stack([idx[:, :-1].ravel(), idx[:, 1:].ravel()], axis=1)
+        lines = np.hstack([np.full((len(segs), 1), 2), segs]).ravel()
+        grid = pv.PolyData(pts, lines=lines)
+        self.plotter.remove_actor(self.ground_actor, render=False)
+        self.plotter.remove_actor(self.grid_actor, render=False)
+        self.ground_actor = self.plotter.add_mesh(plane, color=GROUND, lighting=False,
+                                                  reset_camera=False)
+        self.grid_actor = self.plotter.add_mesh(grid, color=GRID, line_width=1,
+                                                reset_camera=False, lighting=False)
+        self._relief = (plane, np.array(plane.points), grid, np.array(grid.points))
+
+    def _follow_ground(self, ground, offset) -> None:
+        """Lift the plane and grid onto ``ground`` about the grid cell ``offset`` (x, z)."""
+        if ground is None and self._relief is None:
+            return
+        key = None if ground is None else (id(ground), len(ground.ramps), offset)
+        if key == self._relief_key:
+            return
+        if self._relief is None:
+            self._build_relief()
+        self._relief_key = key
+        plane, plane0, grid, grid0 = self._relief
+        for mesh, base, drop in ((plane, plane0, 0.002 * self.scale), (grid, grid0, 0.0)):
+            pts = base.copy()
+            if ground is not None:
+                pts[:, 1] = ground.height(pts[:, [X, Z]] + np.asarray(offset)) - drop
+            else:
+                pts[:, 1] = -drop
+            mesh.points = pts
 
     def _shadow(self) -> None:
         import pyvista as pv
@@ -224,27 +294,56 @@ class Scene:
                                                   reset_camera=False)
 
     # ------------------------------------------------------------ per frame
-    def set_pose(self, world_rotations, world_positions, heading: float) -> None:
-        """Pose the body and move the ground grid and shadow under it."""
+    def set_pose(self, world_rotations, world_positions, heading: float,
+                 ground=None) -> None:
+        """Pose the body and move the ground grid and shadow under it.
+
+        Parameters
+        ----------
+        world_rotations : array-like, shape (J, 3, 3)
+        world_positions : array-like, shape (J, 3)
+        heading : float
+            The body's heading (rad).
+        ground : object, optional
+            A height field with ``height(xz) -> y`` for points (..., 2) [x, z]
+            (:class:`~quadsim.horse.slope.Ground`); None is the plane y = 0.
+            The plane, the grid, the shadow and the camera follow it.
+        """
         self.body.update(self.mesh, world_rotations, world_positions)
         root = np.asarray(world_positions, dtype=float)[0]
         s = self.spacing
-        self.grid_actor.SetPosition(round(root[X] / s) * s, 0.0, round(root[Z] / s) * s)
-        self.ground_actor.SetPosition(round(root[X] / s) * s, 0.0, round(root[Z] / s) * s)
+        offset = (round(root[X] / s) * s, round(root[Z] / s) * s)
+        self._follow_ground(ground, offset)
+        self.grid_actor.SetPosition(offset[0], 0.0, offset[1])
+        self.ground_actor.SetPosition(offset[0], 0.0, offset[1])
         P = np.asarray(world_positions, dtype=float)
         centre = P[self.body.focus].mean(axis=0)
         fwd = np.array([math.sin(heading), math.cos(heading)])
         along = (P[:, [X, Z]] - centre[[X, Z]]) @ fwd
         half_len = max(0.4 * float(np.ptp(along)), 0.3 * self.scale)
         self.shadow_actor.SetScale(0.24 * self.scale, 1.0, half_len)
-        self.shadow_actor.SetOrientation(0.0, math.degrees(heading), 0.0)
-        self.shadow_actor.SetPosition(centre[X], 0.001 * self.scale, centre[Z])
+        floor, pitch, roll = 0.0, 0.0, 0.0
+        if ground is not None:
+            # the ground's height and its gradient along and across the heading
+            side = np.array([fwd[1], -fwd[0]])     # the body's local +X, horizontally
+            c = centre[[X, Z]]
+            d = 0.5 * half_len
+            h = ground.height(np.stack([c, c + d * fwd, c - d * fwd, c + d * side,
+                                        c - d * side]))
+            floor = float(h[0])
+            pitch = -math.degrees(math.atan2(h[1] - h[2], 2 * d))
+            roll = math.degrees(math.atan2(h[3] - h[4], 2 * d))
+        # VTK turns by Z (roll), then X (pitch), then Y (heading)
+        self.shadow_actor.SetOrientation(pitch, math.degrees(heading), roll)
+        self.shadow_actor.SetPosition(centre[X], floor + (0.001 if ground is None else 0.004)
+                                      * self.scale, centre[Z])
         self._root = centre
         self._heading = float(heading)
+        self._floor = floor
 
     def update_camera(self, dt: float) -> None:
         """Move the camera after the body (call after :meth:`set_pose`)."""
-        pos, focal, up = self.rig.update(self._root, self._heading, dt)
+        pos, focal, up = self.rig.update(self._root, self._heading, dt, floor=self._floor)
         cam = self.plotter.renderer.GetActiveCamera()  # plain VTK: no per-call re-clipping
         cam.SetPosition(*pos)
         cam.SetFocalPoint(*focal)

@@ -1,0 +1,334 @@
+"""One interface over the controllers the live preview steers.
+
+The preview (:mod:`quadsim.viz.preview`) steps a controller once per fixed
+time step and shows, records and labels what comes out. The two controllers
+of quadsim differ in what they return and what they know, so each gets a
+small adapter presenting the same :class:`LiveController` interface:
+
+- :class:`ProceduralLive` wraps a
+  :class:`~quadsim.locomotion.ProceduralController` (``mode = "procedural"``,
+  every character): gaits of the character's gait table.
+- :class:`DataLive` wraps a
+  :class:`~quadsim.horse.controller.HorseDataController` (``mode = "data"``, a
+  character with a clip database: the horse): gaits of the clip database
+  (walk, amble, trot, rack, canter, gallop), leaps, sloped ground.
+
+:func:`live_controller` picks one by mode. Each step returns a
+:class:`LiveFrame`: the pose (local rotations and root, from which the world
+positions follow), the gait label, the heading and what a recording keeps.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = ["MODES", "DataLive", "LiveController", "LiveFrame", "ProceduralLive",
+           "check_mode", "live_controller"]
+
+#: Controller modes, as a config's ``mode``.
+MODES = ("procedural", "data")
+
+
+@dataclass
+class LiveFrame:
+    """One controller step, posed.
+
+    Attributes
+    ----------
+    skeleton : Skeleton
+    local_rotations : ndarray, shape (J, 3, 3)
+        Joint rotations relative to the parent (the root's is its world
+        orientation).
+    root : ndarray, shape (3,)
+        World position of the root joint (m).
+    heading : float
+        The body's heading (rad, 0 faces +Z, positive left).
+    gait : str
+        Gait label: a gait, a transition (``"walk->trot"``), ``"leap"`` or
+        ``"stand"``.
+    contacts : ndarray, shape (4,), bool
+        Feet on the ground (LF, RF, LH, RH).
+    extras : dict of str to ndarray
+        Per-frame channels kept in a recording's ``Motion.extras``.
+    """
+
+    skeleton: object
+    local_rotations: np.ndarray
+    root: np.ndarray
+    heading: float
+    gait: str
+    contacts: np.ndarray
+    extras: dict = field(default_factory=dict)
+    _world: tuple | None = field(default=None, repr=False)
+
+    def world(self) -> tuple[np.ndarray, np.ndarray]:
+        """World rotations (J, 3, 3) and positions (J, 3) of every joint (computed once)."""
+        if self._world is None:
+            from quadsim.skeleton.fk import forward_kinematics
+
+            self._world = forward_kinematics(self.skeleton, self.local_rotations, self.root)
+        return self._world
+
+    @property
+    def positions(self) -> np.ndarray:
+        """World joint positions (m), shape (J, 3)."""
+        return self.world()[1]
+
+
+@runtime_checkable
+class LiveController(Protocol):
+    """What the preview needs of a controller.
+
+    Attributes
+    ----------
+    mode : str
+        ``"procedural"`` or ``"data"``.
+    character : Character
+    controller : object
+        The wrapped controller.
+    gait_order : list of str
+        The gaits the number keys hold, in order (1 is the first).
+    auto_gaits : list of str
+        The gaits chosen by speed, slowest first.
+    max_speed : float
+        Fastest speed (m/s) the controller is asked for.
+    ground : object or None
+        The ground's height field (``height(xz) -> y``), None for flat ground.
+    """
+
+    mode: str
+    character: object
+    controller: object
+    gait_order: list
+    auto_gaits: list
+    max_speed: float
+
+    @property
+    def ground(self): ...
+
+    @property
+    def speed(self) -> float:
+        """The speed being played (m/s)."""
+
+    @property
+    def heading(self) -> float:
+        """The body's heading (rad)."""
+
+    @property
+    def gait(self) -> str:
+        """The last frame's gait label."""
+
+    def preferred_speed(self, gait: str) -> float:
+        """The speed (m/s) a number key sets with its gait."""
+
+    def gait_speed_cap(self, gait: str) -> float:
+        """The fastest speed (m/s) a held gait is asked for."""
+
+    def step(self, command, dt: float) -> LiveFrame:
+        """Advance one step of ``dt`` seconds under ``command``."""
+
+
+class ProceduralLive:
+    """The procedural controller behind the :class:`LiveController` interface.
+
+    Parameters
+    ----------
+    character : Character
+    dt : float
+        Fixed step (s).
+    seed : int
+    gait : str, optional
+        Starting gait (a config's first command's).
+    """
+
+    mode = "procedural"
+
+    def __init__(self, character, *, dt: float, seed: int = 0, gait: str | None = None):
+        from quadsim.locomotion import ProceduralController
+        from quadsim.locomotion.gaits import gait_table
+
+        self.character = character
+        self.controller = ProceduralController(character, dt=dt, seed=seed, gait=gait)
+        self.table = gait_table(character)
+        self.gait_order = list(character.locomotion.get("gaits", list(self.table)))[:9]
+        self.auto_gaits = list(self.controller.auto)
+        self.max_speed = float(self.controller.max_speed)
+        self._label = str(self.controller.scheduler.label)
+
+    ground = None
+
+    @property
+    def speed(self) -> float:
+        return float(self.controller.speed)
+
+    @property
+    def heading(self) -> float:
+        return float(self.controller.heading)
+
+    @property
+    def gait(self) -> str:
+        return self._label
+
+    def preferred_speed(self, gait: str) -> float:
+        """The gait table's preferred speed (m/s)."""
+        return float(self.table[gait].preferred_speed)
+
+    def gait_speed_cap(self, gait: str) -> float:
+        """The controller's cap for a requested gait (15 % above its range), at most
+        :attr:`max_speed`."""
+        return min(self.max_speed, float(self.controller.gait_speed_cap(gait)))
+
+    def step(self, command, dt: float) -> LiveFrame:
+        """One controller step, posed (the plan's pose channels kept as extras)."""
+        from quadsim.locomotion.controller import stack_plans
+
+        plan = self.controller.step(command, dt, pose=False)
+        local, root, _ = self.controller.pose(stack_plans([plan]))
+        self._label = str(plan["gait"])
+        extras = {k: np.asarray(plan[k], dtype=float)
+                  for k in ("phase", "spine", "duty", "speed", "heading")}
+        return LiveFrame(self.character.skeleton, local[0], root[0], float(plan["heading"]),
+                         self._label, np.asarray(plan["contacts"], dtype=bool), extras)
+
+
+class DataLive:
+    """The data-driven horse controller behind the :class:`LiveController` interface.
+
+    Parameters
+    ----------
+    character : Character
+        A character with a clip database (``characters/<id>/clips``).
+    dt : float
+        Fixed step (s).
+    database : ClipDatabase, optional
+        Default: the character's shipped clips.
+
+    Notes
+    -----
+    A number key holds a clip gait at the geometric mean of its clips'
+    speeds; a held gait is asked for at most the speed its fastest clip is
+    expanded to (:data:`~quadsim.horse.controller.SPEED_REACH`), and the
+    fastest speed overall is the gallop's.
+    """
+
+    mode = "data"
+
+    def __init__(self, character, *, dt: float, database=None):
+        from quadsim.horse.controller import HorseDataController
+
+        self.character = character
+        self.controller = HorseDataController(character, database, dt=dt)
+        db = self.controller.db
+        self.gait_order = [g for g in db.gaits if g != "leap"][:9]
+        self.auto_gaits = list(self.controller.auto)
+        self.max_speed = max(self.gait_speed_cap(g) for g in self.gait_order)
+        self._label = "stand"
+
+    @property
+    def ground(self):
+        """The controller's :class:`~quadsim.horse.slope.Ground` (None while flat)."""
+        g = self.controller.ground
+        return g if g.ramps else None
+
+    @property
+    def speed(self) -> float:
+        return float(self.controller.speed)
+
+    @property
+    def heading(self) -> float:
+        return float(self.controller.yaw)
+
+    @property
+    def gait(self) -> str:
+        return self._label
+
+    def speed_range(self, gait: str) -> tuple[float, float]:
+        """Slowest and fastest speed (m/s) the gait's clips are played at."""
+        from quadsim.horse.controller import SPEED_REACH
+
+        clips = self.controller.db.by_gait(gait)
+        return clips[0].speed * SPEED_REACH[0], clips[-1].speed * SPEED_REACH[1]
+
+    def preferred_speed(self, gait: str) -> float:
+        """Geometric mean of the gait's clip speeds (m/s)."""
+        clips = self.controller.db.by_gait(gait)
+        return float(math.exp(np.mean([math.log(c.speed) for c in clips])))
+
+    def gait_speed_cap(self, gait: str) -> float:
+        """Fastest speed (m/s) the gait's clips are expanded to."""
+        return float(self.speed_range(gait)[1])
+
+    def step(self, command, dt: float) -> LiveFrame:
+        """One controller step (heading, pitch and the ground under the feet as extras).
+
+        The first step is the starting pose and does not advance; ``dt = 0``
+        is allowed for it only.
+        """
+        if dt <= 0 and self.controller.clip is None:
+            dt = self.controller.dt
+        out = self.controller.step(command, dt)
+        self._label = str(out["gait"])
+        extras = {"heading": np.asarray(out["heading"], dtype=float),
+                  "pitch": np.asarray(out["pitch"], dtype=float),
+                  "ground": np.asarray(out["ground"], dtype=float)}
+        return LiveFrame(self.character.skeleton, out["local_rotations"], out["root"],
+                         float(out["heading"]), self._label,
+                         np.asarray(out["contacts"], dtype=bool), extras)
+
+
+def live_controller(character, mode: str = "procedural", *, dt: float, seed: int = 0,
+                    gait: str | None = None) -> ProceduralLive | DataLive:
+    """The adapter for ``mode``.
+
+    Parameters
+    ----------
+    character : Character
+    mode : {"procedural", "data"}
+    dt : float
+        Fixed step (s).
+    seed : int
+        Procedural mode only.
+    gait : str, optional
+        Procedural mode only: the starting gait.
+
+    Raises
+    ------
+    InputError
+        For an unknown mode, or ``"data"`` with a character that has no clip
+        database.
+    """
+    check_mode(character, mode)
+    if mode == "procedural":
+        return ProceduralLive(character, dt=dt, seed=seed, gait=gait)
+    return DataLive(character, dt=dt)
+
+
+def check_mode(character, mode: str) -> None:
+    """Raise unless ``character`` can be previewed in ``mode``.
+
+    Raises
+    ------
+    InputError
+        For an unknown mode, or ``"data"`` with a character that has no clip
+        database (``characters/<id>/clips/manifest.toml``); the message names
+        the ``--mode`` flag and the fix.
+    """
+    from quadsim.errors import InputError
+
+    if mode not in MODES:
+        raise InputError(f"`--mode` {mode!r} is not a known mode; allowed: "
+                         f"{', '.join(map(repr, MODES))}")
+    if mode != "data":
+        return
+    from quadsim.horse.database import clip_folder
+
+    if clip_folder(character) is None:
+        raise InputError(f"`--mode data`: character {character.id!r} has no clip database "
+                         f"(characters/{character.id}/clips/manifest.toml), which the data "
+                         "mode plays; drop `--mode data` to preview it with the procedural "
+                         "controller, or pick a character with clips "
+                         "(`quadsim preview horse --mode data`)")

@@ -1,0 +1,182 @@
+"""Many characters stepped together equal each character stepped alone.
+
+:class:`BatchController` runs N characters as one vectorised computation;
+every row must follow exactly the path of a lone
+:class:`ProceduralController` with the same seed, starting gait and
+commands -- joint positions to 1e-9 m, identical contacts and gait labels --
+through starts, gait changes (automatic and requested), turning by rate and
+towards a heading, and stopping.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from quadsim.errors import InputError
+from quadsim.locomotion.batch import GAIT_IDS, BatchController
+from quadsim.locomotion.commands import Command, Script
+from quadsim.locomotion.controller import ProceduralController
+from quadsim.locomotion.gaits import max_speed
+from quadsim.locomotion.posing import PLAN_FIELDS
+from quadsim.skeleton.character import load_character
+
+CHARACTERS = ("leopard", "leopard_cub", "dog_cub", "horse")
+TOL = 1e-9
+
+
+def _script(character, k: int) -> Script:
+    """A varied 6-second run: start, speed up, turn, steer to a heading, a
+    requested gait, stop, set off again; ``k`` varies speeds and gaits."""
+    top = max_speed(character)
+    cmds = (Command(speed=(0.15 + 0.1 * k) * top),
+            Command(speed=(0.45 + 0.15 * k) * top, turn_rate=0.6 * (-1) ** k),
+            Command(speed=0.85 * top, heading=-0.7 + 0.5 * k),
+            Command(speed=0.3 * top, gait=("trot", "canter")[k]),
+            Command(speed=0.2 * top, turn_rate=-0.4),
+            Command(speed=0.0),
+            Command(speed=0.4 * top, gait=(None, "walk")[k]))
+    return Script((0.0, 0.8, 1.6, 2.4, 3.2, 4.0, 5.0), cmds)
+
+
+def _row_of(batch: BatchController, j: int) -> tuple[int, int]:
+    """Group index and position within the group of row ``j``."""
+    for g, (_, rows) in enumerate(batch.groups):
+        hit = np.flatnonzero(rows == j)
+        if len(hit):
+            return g, int(hit[0])
+    raise AssertionError(f"row {j} in no group")
+
+
+def test_mixed_batch_equals_each_character_alone():
+    chars = {n: load_character(n) for n in CHARACTERS}
+    # interleaved kinds, two rows each with different seeds, commands and starts
+    rows = [(chars[CHARACTERS[i % 4]], i // 4, 7 * i + 1, ("walk", None)[i // 4])
+            for i in range(8)]
+    scripts = [_script(ch, k) for ch, k, _, _ in rows]
+    dt, seconds = 1.0 / 60.0, 6.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        batch = BatchController([r[0] for r in rows], dt=dt, seeds=[r[2] for r in rows],
+                                gaits=[r[3] for r in rows])
+        alone = [ProceduralController(ch, dt=dt, seed=seed, gait=g) for ch, _, seed, g in rows]
+        where = [_row_of(batch, j) for j in range(len(rows))]
+        worst = 0.0
+        labels = set()
+        for k in range(int(seconds / dt)):
+            cmds = [s.command_at(k * dt) for s in scripts]
+            frame = batch.step_commands(cmds)
+            for j, (ctl, cmd) in enumerate(zip(alone, cmds)):
+                one = ctl.step(cmd)
+                g, i = where[j]
+                err = np.abs(frame["positions"][g][i] - one["positions"]).max()
+                worst = max(worst, err)
+                assert err <= TOL, (k, j, err)
+                np.testing.assert_array_equal(frame["contacts"][j], one["contacts"])
+                assert batch.labels[j] == one["gait"], (k, j)
+                np.testing.assert_allclose(frame["root"][j], one["root"], atol=TOL)
+                np.testing.assert_allclose(frame["ik_error"][g][i], one["ik_error"], atol=TOL)
+                labels.add(one["gait"])
+    # the run really went through transitions, bounding gaits and standing
+    assert any("->" in lb for lb in labels)
+    assert any(lb.endswith("->stand") or lb == "stand" for lb in labels)
+    assert "canter" in labels and "trot" in labels
+    assert worst <= TOL
+
+
+def test_one_row_batch_equals_the_controller_and_plan_only_matches_posed():
+    ch = load_character("dog_cub")
+    cmd = Command(speed=0.5 * max_speed(ch), turn_rate=0.3)
+    batch = BatchController([ch], seeds=4)
+    plan_only = BatchController([ch], seeds=4)
+    ctl = ProceduralController(ch, seed=4)
+    for _ in range(90):
+        f = batch.step_commands([cmd])
+        p = plan_only.step_commands([cmd], pose=False)
+        one = ctl.step(cmd)
+    np.testing.assert_allclose(f["positions"][0][0], one["positions"], atol=TOL)
+    np.testing.assert_allclose(f["local_rotations"][0][0], one["local_rotations"], atol=TOL)
+    np.testing.assert_allclose(p["feet"][0], one["feet"], atol=TOL)
+    np.testing.assert_allclose(p["phase"][0], one["phase"], atol=TOL)
+    assert "positions" not in p
+
+
+def test_array_commands_equal_command_objects():
+    ch = load_character("leopard")
+    n = 5
+    rng = np.random.default_rng(2)
+    speed = rng.uniform(0.1, 0.7, n) * max_speed(ch)
+    turn = rng.uniform(-0.5, 0.5, n)
+    a = BatchController([ch] * n, seeds=range(n))
+    b = BatchController([ch] * n, seeds=range(n))
+    gait = a.gait_ids([None, "trot", None, "walk", None])
+    assert list(gait) == [-1, GAIT_IDS.index("trot"), -1, GAIT_IDS.index("walk"), -1]
+    cmds = [Command(speed=float(v), turn_rate=float(w), gait=g)
+            for v, w, g in zip(speed, turn, [None, "trot", None, "walk", None])]
+    for _ in range(40):
+        fa = a.step(speed, turn, None, gait, pose=False)
+        fb = b.step_commands(cmds, pose=False)
+    np.testing.assert_array_equal(fa["feet"], fb["feet"])
+    # different seeds give different rows
+    assert np.abs(fa["phase"][0] - fa["phase"][1]).max() > 1e-3
+
+
+def test_bad_batch_input_is_refused():
+    ch = load_character("leopard")
+    with pytest.raises(ValueError, match="empty"):
+        BatchController([])
+    with pytest.raises(ValueError, match="dt"):
+        BatchController([ch], dt=0.0)
+    with pytest.raises(ValueError, match="gaits"):
+        BatchController([ch, ch], gaits=["walk"])
+    b = BatchController([ch, ch])
+    with pytest.raises(ValueError, match="speed"):
+        b.step([1.0, -1.0])
+    with pytest.raises(ValueError, match="turn_rate"):
+        b.step([1.0, 1.0], [0.0, np.inf])
+    with pytest.raises(InputError, match="unknown gait"):
+        b.gait_ids(["amble", None])
+    with pytest.raises(InputError, match="not among"):
+        b.step([1.0, 1.0], gait=[GAIT_IDS.index("amble"), -1])
+    with pytest.raises(ValueError, match="2 characters"):
+        b.step_commands([Command(speed=1.0)])
+
+
+def test_posing_a_mixed_herd_equals_posing_each_row_alone():
+    chars = [load_character("leopard"), load_character("horse")]
+    n = 11
+    herd = BatchController([chars[i % 2] for i in range(n)], seeds=range(n))
+    speed = np.linspace(0.5, 4.0, n)
+    for _ in range(30):
+        plan = herd.step(speed, 0.2, pose=False)
+    whole = herd.pose(plan)
+    assert [len(rows) for _, rows in herd.groups] == [6, 5]
+    for g, (ch, rows) in enumerate(herd.groups):
+        poser = herd.kinds[g].poser
+        for i, row in enumerate(rows):
+            one = {k: plan[k][row:row + 1] for k in PLAN_FIELDS}
+            one["tail"] = one["tail"][:, :len(ch.tail)]
+            local, _, err = poser.pose(one)
+            np.testing.assert_array_equal(whole["local_rotations"][g][i], local[0])
+            np.testing.assert_array_equal(whole["ik_error"][g][i], err[0])
+
+
+def test_zero_first_step_starting_gaits_and_standing_still_match():
+    """As simulate starts: a first step of dt = 0, then fixed steps; rows that
+    start in a requested gait (the horse's amble) or stand still."""
+    chars = [load_character(n) for n in ("leopard", "horse", "dog_cub")]
+    starts = ["trot", "amble", None]
+    cmds = [Command(speed=2.0), Command(speed=1.5, gait="amble", heading=1.0),
+            Command(speed=0.0)]
+    batch = BatchController(chars, seeds=[1, 2, 3], gaits=starts)
+    alone = [ProceduralController(c, seed=k, gait=g) for c, k, g in zip(chars, [1, 2, 3], starts)]
+    for k in range(120):
+        dt = 0.0 if k == 0 else 1.0 / 60.0
+        frame = batch.step_commands(cmds, dt)
+        for j, ctl in enumerate(alone):
+            one = ctl.step(cmds[j], dt)
+            g, i = _row_of(batch, j)
+            np.testing.assert_allclose(frame["positions"][g][i], one["positions"], atol=TOL)
+            assert batch.labels[j] == one["gait"]
+    assert batch.labels == ["trot", "amble", "stand"]
+    assert np.all(frame["contacts"][2])
