@@ -217,10 +217,10 @@ def bench_horse_data(frames: int, repeats: int) -> dict | None:
 
 # ------------------------------------------------------------------ (c) many
 MANY_METHOD = ("BatchController.step(pose=True): the N characters as arrays with a leading "
-               "character axis; speed, turning and gait choice as vectorised numpy, then "
-               "compiled (numba) kernels looping over the characters for the CPG, the feet, "
-               "the spine and body, and the posing (leg IK and forward kinematics of every "
-               "joint)")
+               "character axis; the whole plan (speed, turning, gait choice and "
+               "transitions, stride limits, CPG, feet, spine and body) as one compiled "
+               "(numba) kernel looping over the characters, then the compiled posing (leg "
+               "IK and forward kinematics of every joint)")
 LOOP_METHOD = "N independent ProceduralController.step(pose=True) calls in a Python loop"
 
 

@@ -23,15 +23,9 @@ from quadsim.horse.database import looped
 from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, measure_contact_time
 from quadsim.io.bvh import read_bvh
 from quadsim.locomotion.commands import Command, Script
-from quadsim.skeleton.character import load_character
 
 REPO = Path(__file__).resolve().parents[1]
 FPS = 60
-
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
 
 
 @pytest.fixture(scope="module")

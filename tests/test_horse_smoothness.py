@@ -25,7 +25,6 @@ from quadsim.horse.legs import place_feet, two_bone
 from quadsim.horse.turning import place_feet_pose
 from quadsim.locomotion.commands import Command, Script
 from quadsim.locomotion.controller import QuadsimClampWarning
-from quadsim.skeleton.character import load_character
 from quadsim.skeleton.fk import forward_kinematics
 from quadsim.skeleton.motion import Motion
 
@@ -40,16 +39,6 @@ SLOPE = math.radians(8.0)
 #: Acceleration allowance (rad/s^2) for joints the clip holds still (the body joints
 #: leading a turn or a slope): a quarter degree per frame squared.
 ACCEL_FLOOR = math.radians(0.25) * FPS ** 2
-
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return HorseDataController(horse).db
 
 
 def _run(horse, db, command, fps=FPS):

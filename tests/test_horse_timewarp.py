@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from quadsim.analysis.metrics import angular_acceleration, foot_contacts, stance_intervals
-from quadsim.horse.database import load_default_database
 from quadsim.horse.timewarp import (
     REFERENCE,
     blend_frames,
@@ -14,17 +13,6 @@ from quadsim.horse.timewarp import (
     synchronous_transition,
     transition_motion,
 )
-from quadsim.skeleton.character import load_character
-
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return load_default_database(horse)
 
 
 def test_blend_length_solves_equation_3():

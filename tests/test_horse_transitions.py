@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from quadsim.analysis.metrics import foot_contacts, foot_slide
-from quadsim.horse.database import load_default_database
 from quadsim.horse.speed import expand
 from quadsim.horse.timewarp import (
     leg_stance,
@@ -24,7 +23,6 @@ from quadsim.horse.timewarp import (
     transition_motion,
     transition_quality,
 )
-from quadsim.skeleton.character import load_character
 
 GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop")
 PAIRS = list(itertools.permutations(GAITS, 2))
@@ -33,16 +31,6 @@ PHASES = (0.0, 0.25, 0.5, 0.75)
 #: controller's reach of its 11 m/s clip).
 RANGES = {"walk": (1.4, 1.8), "amble": (2.7, 3.8), "trot": (2.5, 6.5),
           "rack": (2.9, 5.5), "canter": (4.4, 7.5), "gallop": (9.0, 15.0)}
-
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return load_default_database(horse)
 
 
 @pytest.fixture(scope="module")

@@ -16,20 +16,9 @@ from quadsim.errors import InputError
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.slope import Ground
 from quadsim.locomotion.commands import Command, Script
-from quadsim.skeleton.character import load_character
 from quadsim.skeleton.motion import Motion
 
 FPS = 60
-
-
-@pytest.fixture(scope="module")
-def horse():
-    return load_character("horse")
-
-
-@pytest.fixture(scope="module")
-def db(horse):
-    return HorseDataController(horse).db
 
 
 def _run(horse, db, script, seconds, rotations=None):

@@ -16,7 +16,7 @@ CELL_TIMEOUT = 180
 
 def test_there_are_notebooks():
     assert [p.name for p in NOTEBOOKS] == ["01_quickstart.ipynb", "02_gait_transitions.ipynb",
-                                          "03_horse.ipynb"]
+                                          "03_horse.ipynb", "04_horse_data.ipynb"]
 
 
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])

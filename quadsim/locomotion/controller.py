@@ -18,16 +18,16 @@ One :class:`ProceduralController` drives one character. Each call of
 :class:`~quadsim.skeleton.motion.Motion`; the posing of all frames is done
 in one compiled pass at the end.
 
-Speed: one character's state is a few numbers per leg, so a step keeps it
-in plain Python floats and lists -- numpy's per-call overhead on arrays of
-four numbers costs more than the arithmetic -- and runs the heavy stages as
-compiled kernels over rows, the very ones
-:class:`~quadsim.locomotion.batch.BatchController` runs for N characters:
-the CPG step (:func:`~quadsim.locomotion.cpg.cpg_step_rows`), the feet
-(:func:`~quadsim.locomotion.plan_kernels.feet_rows`) and the posing, leg IK
-and forward kinematics (:mod:`quadsim.locomotion.pose_kernel`), for a single
-frame and a whole clip alike. Tests hold the batch to the same motion to
-1e-9.
+Speed: the whole per-frame plan (stages 1-6 but the posing) is one compiled
+kernel over rows of characters,
+:func:`~quadsim.locomotion.plan_kernels.plan_rows`, the very one
+:class:`~quadsim.locomotion.batch.BatchController` runs for N characters: a
+lone controller keeps its state as one row of the kernel's arrays (read
+back through properties such as :attr:`ProceduralController.speed`) and
+steps it with one call; the posing, leg IK and forward kinematics are the
+compiled kernels of :mod:`quadsim.locomotion.pose_kernel`, for a single frame
+and a whole clip alike. The kernel reports its clamps as flags and the
+warnings are raised here. Tests hold the batch to the same motion to 1e-9.
 
 Bad commands: a negative or non-finite speed or turn rate raises
 ``ValueError`` (:class:`~quadsim.locomotion.commands.Command` checks it); an
@@ -50,19 +50,20 @@ from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.commands import Command, Script
-from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
+from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import (
+    GAIT_NAMES,
     Gait,
     auto_gaits,
     gait_table,
     max_speed,
     resolve_gait_name,
 )
-from quadsim.locomotion.plan_kernels import MIN_SWING, feet_rows
+from quadsim.locomotion import plan_kernels as _pk
+from quadsim.locomotion.plan_kernels import run_plan, step_scalars
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.scalar import TWO_PI, interp
-from quadsim.locomotion.transition import GaitScheduler
-from quadsim.locomotion.turning import turn_rate_towards
+from quadsim.locomotion.transition import GaitParams, GaitScheduler
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
 
@@ -70,6 +71,9 @@ from quadsim.skeleton.motion import Motion
 #: The standing state: every foot planted (duty factor 1), entered when the
 #: commanded speed is zero and left when it is not.
 STAND = "stand"
+
+#: Gait identifiers by number: the eight gaits, then the standing state.
+GAIT_IDS: tuple[str, ...] = GAIT_NAMES + (STAND,)
 
 
 
@@ -97,6 +101,20 @@ def initial_oscillators(gait: Gait, seed: int):
     r = np.full(4, 1.0) + rng.normal(0.0, 0.02, 4)
     theta_s = np.asarray(theta[2] + rng.normal(0.0, 0.05))
     return theta, r, theta_s
+
+
+class _Rows:
+    """A bag of arrays (the compiled plan's constants or state), as attributes."""
+
+    def __init__(self, **arrays):
+        self.__dict__.update(arrays)
+
+
+def _params_of(row) -> GaitParams:
+    """GaitParams of a parameter row (plan_kernels' columns)."""
+    return GaitParams(float(row[_pk.P_DUTY]), np.array(row[_pk.P_PH0:_pk.P_PH0 + 4]),
+                      float(row[_pk.P_COEF]), float(row[_pk.P_MINV]), float(row[_pk.P_SWING]),
+                      float(row[_pk.P_DROP]), float(row[_pk.P_BOUND]), float(row[_pk.P_SPAMP]))
 
 
 class QuadsimClampWarning(UserWarning):
@@ -213,68 +231,126 @@ class ProceduralController:
         self._offset_f = tuple(tuple(o) for o in self.foot_offset.tolist())
         self._offset_1 = np.ascontiguousarray(self.foot_offset[None], dtype=float)
 
+    def _tables(self) -> None:
+        """The compiled plan's constants for this character, one row
+        (:func:`~quadsim.locomotion.plan_kernels.plan_rows`)."""
+        G = len(GAIT_IDS)
+        table = np.full((G, _pk.NP_), np.nan)
+        law = np.full((G, 4), np.nan)  # speed lo, hi, duty lo, hi
+        has = np.zeros(G, dtype=bool)
+        for g, name in enumerate(GAIT_IDS):
+            gait = self.gaits.get(name)
+            if gait is None:
+                continue
+            has[g] = True
+            table[g, _pk.P_PH0:_pk.P_PH0 + 4] = gait.phases
+            table[g, _pk.P_COEF] = gait.stride_coefficient
+            table[g, _pk.P_MINV] = gait.speed_range[0]
+            table[g, _pk.P_SWING] = gait.swing_height
+            table[g, _pk.P_DROP] = gait.drop
+            table[g, _pk.P_BOUND] = 1.0 if gait.spine == "bound" else 0.0
+            table[g, _pk.P_SPAMP] = gait.spine_amplitude
+            law[g] = (*gait.speed_range, *gait.duty_range)
+        self.gait_table, self.gait_law, self.gait_has = table, law, has
+        self.auto_ids = np.array([GAIT_IDS.index(n) for n in self.auto], dtype=np.int64)
+        consts = np.zeros(_pk.NC)
+        consts[_pk.C_H] = self.h
+        consts[_pk.C_PELVIS] = self.pelvis_height
+        consts[_pk.C_HIND_Z] = self.hind_z
+        consts[_pk.C_BODY] = self.body_length
+        consts[_pk.C_STAND_V] = self.stand_speed
+        consts[_pk.C_MAX_V] = self.max_speed
+        consts[_pk.C_MAX_TURN] = self.max_turn_rate
+        consts[_pk.C_FLEXED] = self.flexed
+        consts[_pk.C_EXTENDED] = self.extended
+        consts[_pk.C_RMIN] = self.min_turn_radius * self.body_length
+        consts[_pk.C_SLOW] = self.slow_scale
+        consts[_pk.C_WALK_TOP] = self.gaits[self.auto[0]].speed_range[1]
+        consts[_pk.C_NTAIL] = max(len(self.character.tail), 1)
+        consts[_pk.C_HYST] = self.scheduler.hysteresis
+        consts[_pk.C_NAUTO] = len(self.auto)
+        self.plan_consts = consts
+        pos = np.full(G, -1, dtype=np.int64)
+        pos[self.auto_ids] = np.arange(len(self.auto))
+        bounds = np.full(len(self.auto), np.inf)
+        bounds[:len(self.scheduler.bounds)] = self.scheduler.bounds
+        self._k = _Rows(
+            kind=np.zeros(1, dtype=np.int64), consts=np.ascontiguousarray(consts[:, None]),
+            table=table[None].copy(), law=law[None].copy(), auto=self.auto_ids[None].copy(),
+            bounds=bounds[None].copy(), auto_pos=pos[None].copy(),
+            drops=np.ascontiguousarray(self.drops, dtype=float),
+            half_sweep=np.ascontiguousarray(self.half_sweep[None], dtype=float),
+            sweep_min=np.ascontiguousarray(self._sweep_min[None], dtype=float),
+            sweep_cols=np.ascontiguousarray(np.swapaxes(self.half_sweep, 0, 1)[None],
+                                            dtype=float),
+            foot_offset=self._offset_1)
+
+    def _target_row(self, gait_id: int, speed: float) -> np.ndarray:
+        """Parameter row (NP,) of a gait at ``speed`` (GaitScheduler.target)."""
+        out = self.gait_table[gait_id].copy()
+        lo, hi, d0, d1 = self.gait_law[gait_id]
+        s = min(max((speed - lo) / (hi - lo), 0.0), 1.0)
+        out[_pk.P_DUTY] = d0 + s * (d1 - d0)
+        return out
+
     def _init_state(self, seed: int) -> None:
-        # per-leg state as lists of plain floats (legs LF, RF, LH, RH), points
-        # as 3-tuples: numpy on four numbers costs more in calls than in sums
+        # the state as one row of the arrays the compiled plan updates in
+        # place (plan_kernels.plan_rows), as the batch's N rows
+        self._tables()
         theta, r, theta_s = initial_oscillators(self.gaits[self.scheduler.current], seed)
-        self.theta = theta.tolist()
-        self.r = r.tolist()
-        self.theta_s = float(theta_s)
-        self.r_s = 1.0
-        self.time = 0.0
-        self.speed = 0.0
-        self.yaw_rate = 0.0
-        self.heading = 0.0
-        self.root_xz = (0.0, 0.0, 0.0)
-        self.bend = 0.0
-        self.spine_angle = 0.0
-        self.spine_smooth = 0.0
-        self.height = self.pelvis_height
-        self.drops_now = [0.0, 0.0]
-        self.tail = self.tail_rest.tolist()
-        self.stance = [True] * 4
         feet = self.character.rest_foot_positions().copy()
         feet[:, Y] = 0.0
-        self.planted = [tuple(f) for f in feet.tolist()]
-        self.feet = list(self.planted)
-        # the feet's state as the compiled stage 5 updates it in place (one row;
-        # stance and planted are mirrored in the lists above)
-        self._feet_state = {
-            "stance": np.ones((1, 4), dtype=bool), "swing_s": np.zeros((1, 4)),
-            "theta_lo": np.array([self.theta]), "theta_td": np.array([self.theta]),
-            "planted": feet[None].copy(), "liftoff": feet[None].copy()}
-        self.params = self.scheduler.params(0.0)
-        self.freq = 1.0
+        start = GAIT_IDS.index(self.scheduler.current)
+        self._s = _Rows(
+            speed=np.zeros(1), yaw_rate=np.zeros(1), heading=np.zeros(1),
+            root_xz=np.zeros((1, 3)), bend=np.zeros(1), theta=theta[None].astype(float),
+            r=r[None].astype(float), theta_s=np.array([float(theta_s)]), r_s=np.ones(1),
+            freq=np.ones(1), current=np.array([start], dtype=np.int64),
+            source_name=np.array([start], dtype=np.int64), source=np.zeros((1, _pk.NP_)),
+            in_transition=np.zeros(1, dtype=bool), elapsed=np.zeros(1),
+            duration=np.zeros(1), params=self._target_row(start, 0.0)[None],
+            stance=np.ones((1, 4), dtype=bool), swing_s=np.zeros((1, 4)),
+            theta_lo=theta[None].astype(float), theta_td=theta[None].astype(float),
+            planted=feet[None].copy(), liftoff=feet[None].copy(), spine_angle=np.zeros(1),
+            spine_smooth=np.zeros(1), drops_now=np.zeros((1, 2)),
+            height=np.array([self.pelvis_height]),
+            tail=np.zeros((1, len(self.character.tail), 2)))
+        self.time = 0.0
+        self.feet = [tuple(f) for f in feet.tolist()]
+        self._sc: dict[float, np.ndarray] = {}
+        # the command as one row (speed, turn rate, heading, gait id), reused
+        self._cmd = (np.zeros(1), np.zeros(1), np.zeros(1), np.zeros(1, dtype=np.int64))
+        self._gait_ids: dict[str, tuple[str, int]] = {}
+
+    # the state, read from the compiled plan's row
+    speed = property(lambda self: float(self._s.speed[0]), doc="Forward speed (m/s).")
+    heading = property(lambda self: float(self._s.heading[0]), doc="Heading about +Y (rad).")
+    yaw_rate = property(lambda self: float(self._s.yaw_rate[0]), doc="Turn rate (rad/s).")
+    bend = property(lambda self: float(self._s.bend[0]), doc="Spine yaw bend (rad).")
+    freq = property(lambda self: float(self._s.freq[0]), doc="Stride frequency (Hz).")
+    height = property(lambda self: float(self._s.height[0]), doc="Pelvis height (m).")
+    spine_smooth = property(lambda self: float(self._s.spine_smooth[0]))
+    spine_angle = property(lambda self: float(self._s.spine_angle[0]))
+    theta_s = property(lambda self: float(self._s.theta_s[0]))
+    r_s = property(lambda self: float(self._s.r_s[0]))
+    theta = property(lambda self: self._s.theta[0].tolist(), doc="Leg phases (rad).")
+    r = property(lambda self: self._s.r[0].tolist())
+    stance = property(lambda self: self._s.stance[0].tolist(), doc="Planted feet (4 bools).")
+    planted = property(lambda self: [tuple(f) for f in self._s.planted[0].tolist()])
+    root_xz = property(lambda self: tuple(self._s.root_xz[0].tolist()))
+    drops_now = property(lambda self: self._s.drops_now[0].tolist())
+    tail = property(lambda self: self._s.tail[0].tolist())
+
+    @property
+    def params(self) -> GaitParams:
+        """The blended gait parameters of the last step."""
+        return _params_of(self._s.params[0])
 
     # ------------------------------------------------------------ helpers
     def _warn(self, key: str, msg: str) -> None:
         if key not in self._warned:
             self._warned.add(key)
             warnings.warn(msg, QuadsimClampWarning, stacklevel=3)
-
-    def _key_points(self, root_xz, heading, bend):
-        """Hind and fore key points (two 3-tuples) and their headings (two floats)."""
-        # rotate_y of (0, 0, z) about +Y, in scalar form: (z sin h, 0, z cos h)
-        hz, bl = self.hind_z, self.body_length
-        fh = heading + 0.5 * bend
-        x, y, z = root_xz
-        hx, hy, hzz = x + math.sin(heading) * hz, y + 0.0, z + math.cos(heading) * hz
-        keys = ((hx, hy, hzz), (hx + math.sin(fh) * bl, hy + 0.0, hzz + math.cos(fh) * bl))
-        return keys, (heading, heading + bend)
-
-    def _girdle_frame(self, keys, key_heading):
-        """Each foot's mid-stance point and its girdle's forward vector (lists
-        of four 3-tuples)."""
-        mids, fwds = [], []
-        for g in (0, 1):
-            kh = key_heading[g]
-            c, sn = math.cos(kh), math.sin(kh)
-            kx, ky, kz = keys[g]
-            for ox, oy, oz in self._offset_f[2 - 2 * g:4 - 2 * g]:
-                mids.append((c * ox + sn * oz + kx, oy + ky, -sn * ox + c * oz + kz))
-                fwds.append((sn, 0.0, c))
-        # legs in order LF, RF (fore girdle), LH, RH (hind)
-        return mids[2:] + mids[:2], fwds[2:] + fwds[:2]
 
     def _measure_sweeps(self, drops: np.ndarray) -> np.ndarray:
         """Half stance sweep each leg reaches exactly, per body drop, shape (D, 4) (m).
@@ -327,47 +403,6 @@ class ProceduralController:
         margin = self.settings.reach_margin - 0.05 * bound
         return 2.0 * margin * half / max(duty, 1e-3)
 
-    def _trailing_room(self, girdles=None) -> list[float]:
-        """How far (m) each foot may still fall behind its girdle before it is out
-        of reach, four floats; the body may vault by the planned allowance.
-        ``girdles``: this state's :meth:`_girdle_frame`, if already known."""
-        p = self.params
-        if girdles is None:
-            keys, kh = self._key_points(self.root_xz, self.heading, self.bend)
-            girdles = self._girdle_frame(keys, kh)
-        mid, fwd = girdles
-        d0, d1 = self.drops_now
-        drop = max(p.drop + self.settings.vault, max(d0, d1))
-        base = interp(drop, self._drops_f, self._sweep_min_f)
-        return [base + ((a[0] - m[0]) * f[0] + (a[1] - m[1]) * f[1] + (a[2] - m[2]) * f[2])
-                for a, m, f in zip(self.planted, mid, fwd)]
-
-    def _reach_governor(self, dt: float) -> float:
-        """Fastest speed (m/s) at which no planted foot falls out of reach before
-        it lifts off.
-
-        In steady locomotion the stride limit already guarantees this and the
-        cap is far above the speed; it acts when feet stay planted longer than
-        a stride planned for (a skipped step as the character starts or stops).
-        """
-        duty = self.params.duty
-        room = self._trailing_room()
-        out = math.inf
-        for th, down, rm in zip(self.theta, self.stance, room):
-            if not down:
-                continue
-            u = (th / TWO_PI) % 1.0
-            lifts = u < duty and 1.0 - MIN_SWING >= duty
-            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / self.freq
-            den = max(t_lo, dt)
-            num = max(rm, 0.0)
-            if den == 0.0:  # as numpy: x / 0 is inf, 0 / 0 is nan (and nan wins)
-                if num == 0.0:
-                    return math.nan
-                continue
-            out = min(out, num / den)
-        return out
-
     def needed_drop(self, leg: int, offset: float) -> float:
         """Body drop (fraction of pelvis height) at which a planted foot ``offset``
         metres fore or aft of its mid-stance point is within the leg's reach margin."""
@@ -402,192 +437,93 @@ class ProceduralController:
             frame["ik_error"] = err
         return frame
 
-    def _advance(self, command: Command, dt: float | None) -> dict:
+    def _gait_id(self, name: str) -> tuple[str, int]:
+        out = self._gait_ids.get(name)
+        if out is None:
+            resolved = resolve_gait_name(name, self.character)
+            out = self._gait_ids[name] = (resolved, GAIT_IDS.index(resolved))
+        return out
+
+    def _sync_scheduler(self) -> None:
+        """Mirror the compiled plan's gait state on :attr:`scheduler`."""
+        st, sch = self._s, self.scheduler
+        sch.current = GAIT_IDS[st.current[0]]
+        sch.source_name = GAIT_IDS[st.source_name[0]]
+        sch.elapsed = float(st.elapsed[0])
+        sch.duration = float(st.duration[0])
+        if not st.in_transition[0]:
+            sch.source = None
+        elif sch.source is None or st.elapsed[0] == 0.0:
+            sch.source = _params_of(st.source[0])
+
+    def _plan(self, command: Command, dt: float | None):
+        """One step of the compiled plan (plan_kernels.plan_rows, one row),
+        warnings raised for its clamps. Returns the kernel's feet (1, 4, 3),
+        fold (1, 4), pitch (1,) and sway (1, 2); the rest is in the state."""
         dt = self.dt if dt is None else float(dt)
-        s = self.settings
-        # 1. speed and turning -------------------------------------------
+        sc = self._sc.get(dt)
+        if sc is None:
+            sc = self._sc[dt] = step_scalars(self.settings, dt)
         v_cmd = float(command.speed)
-        halt = v_cmd <= 1e-9
-        if command.gait:
-            cap = self.gait_speed_cap(resolve_gait_name(command.gait, self.character))
-            if v_cmd > cap:
+        gait_name, gid = self._gait_id(command.gait) if command.gait else (None, -1)
+        head = math.nan if command.heading is None else float(command.heading)
+        turn = float(command.turn_rate or 0.0) if command.heading is None else 0.0
+        st = self._s
+        cv, ct, ch, cg = self._cmd
+        cv[0], ct[0], ch[0], cg[0] = v_cmd, turn, head, gid
+        feet, fold, pitch, sway, flags, aux = run_plan(
+            self._k, st, cv, ct, ch, cg, sc, self.settings.cpg.substeps)
+        if flags.any():
+            if flags[0, 0]:
+                cap = self.gait_speed_cap(gait_name)
                 self._warn("gait_speed", f"speed {v_cmd:.2f} m/s is above what the "
                            f"{command.gait} of {self.character.id} reaches ({cap:.2f} m/s); "
                            f"clamped to {cap:.2f} m/s")
                 v_cmd = cap
-        if v_cmd > self.max_speed:
-            self._warn("speed", f"speed {v_cmd:.2f} m/s is above {self.character.id}'s fastest "
-                       f"gait ({self.max_speed:.2f} m/s); clamped to {self.max_speed:.2f} m/s")
-            v_cmd = self.max_speed
-        sch = self.scheduler
-        if sch.current == STAND or (sch.in_transition and sch.source_name == STAND):
-            # feet planted: set off only as fast as the legs start to step
-            progress = min(sch.elapsed / sch.duration, 1.0) if sch.in_transition else 0.0
-            v_cmd = min(v_cmd, max(progress, 0.0) ** 2 * self.gaits[self.auto[0]].speed_range[1])
-        v_cmd = min(v_cmd, self._reach_governor(dt))
-        dv = min(max(v_cmd - self.speed, -s.acceleration * dt), s.acceleration * dt)
-        v_before = self.speed
-        self.speed = max(self.speed + float(dv), 0.0)
-        v = self.speed
-        max_rate = self.max_turn_rate_at(max(v, v_cmd))
-        if command.heading is not None:
-            rate = float(turn_rate_towards(self.heading, command.heading, max_rate))
-        else:
-            rate = float(command.turn_rate or 0.0)
-            if abs(rate) > max_rate:
-                self._warn("turn", f"turn rate {math.degrees(rate):.1f} deg/s is beyond "
-                           f"{self.character.id}'s maximum at {max(v, v_cmd):.2f} m/s "
+            if flags[0, 1]:
+                self._warn("speed", f"speed {v_cmd:.2f} m/s is above {self.character.id}'s "
+                           f"fastest gait ({self.max_speed:.2f} m/s); clamped to "
+                           f"{self.max_speed:.2f} m/s")
+            if flags[0, 2]:
+                fast, max_rate = float(aux[0, 0]), float(aux[0, 1])
+                self._warn("turn", f"turn rate {math.degrees(turn):.1f} deg/s is beyond "
+                           f"{self.character.id}'s maximum at {fast:.2f} m/s "
                            f"({math.degrees(max_rate):.1f} deg/s); clamped")
-                rate = math.copysign(max_rate, rate)
-        self.yaw_rate += (rate - self.yaw_rate) * (1.0 - math.exp(-dt / s.turn_response))
-
-        # 2. gait -----------------------------------------------------------
-        if command.gait:
-            wanted = resolve_gait_name(command.gait, self.character)
-            # a slow gait cannot carry a fast body: slow down in the automatic
-            # gaits first, then change (a fast gait may start at any speed)
-            if v > self.gait_speed_cap(wanted):
-                wanted = self.scheduler.auto_choice(v)
-        elif halt and v <= self.stand_speed:
-            wanted = STAND
-        else:
-            wanted = self.scheduler.auto_choice(v)
-        # setting off from a stand is quick: the first steps come at once
-        quick = 0.6 if self.scheduler.current == STAND else None
-        p = self.scheduler.update(wanted, v, dt, 1.0 / max(self.freq, 1e-3), quick)
-        self.params = p
-        limit = self.stride_limit(p.duty, p.drop + s.vault, p.bound)
-        lam = min(p.stride_length(v, self.h), limit)
-        lam_min_speed = min(p.stride_length(p.min_speed, self.h), limit)
-        self.freq = max(v / lam, p.min_speed / lam_min_speed) if v > 1e-6 else \
-            p.min_speed / lam_min_speed
-        omega = TWO_PI * self.freq
-
-        # 3. CPG ------------------------------------------------------------
-        theta_prev = self.theta
-        c = s.cpg  # the compiled network step, one row (as the batch's N)
-        th, rr, ts, rs = cpg_step_rows(
-            np.array([self.theta]), np.array([self.r]), np.array([self.theta_s]),
-            np.array([self.r_s]), np.array([omega]), np.array([p.phases], dtype=float), dt,
-            c.mu, c.gain, c.coupling, c.spine_coupling, c.substeps)
-        theta, self.r = th[0].tolist(), rr[0].tolist()
-        self.theta_s, self.r_s = float(ts[0]), float(rs[0])
-        # never let a phase run backwards (strong coupling at a start-up)
-        theta = self.theta = [max(a, b) for a, b in zip(theta, theta_prev)]
-
-        # 4. body on its path -------------------------------------------------
-        # trapezoidal in speed and heading: exact for constant acceleration
-        self.heading = self.heading + self.yaw_rate * dt
-        k = 0.5 * (v_before + v) * dt  # heading_vector in scalar form
-        mid_heading = self.heading - 0.5 * self.yaw_rate * dt
-        x, y, z = self.root_xz
-        self.root_xz = (x + k * math.sin(mid_heading), y + k * 0.0, z + k * math.cos(mid_heading))
-        bend_target = min(max(self.yaw_rate * self.body_length / max(v, 0.3 * self.h),
-                              -s.max_bend), s.max_bend)
-        self.bend += (bend_target - self.bend) * (1.0 - math.exp(-dt / 0.2))
-        keys, key_heading = self._key_points(self.root_xz, self.heading, self.bend)
-
-        # 5. feet: the compiled stage the batch runs (plan_kernels.feet_rows), one row
-        u = [(t / TWO_PI) % 1.0 for t in theta]
-        duty = p.duty
-        # a foot landing now stays down until the duty factor it will end with:
-        # during a transition towards a longer stance, plan for the longer one
-        final = self.scheduler.target(self.scheduler.current, v)
-        reach = v * dt
-        girdles = self._girdle_frame(keys, key_heading)
-        trailing = [room < reach for room in self._trailing_room(girdles)]  # out of reach soon
-        # land half a stance ahead of the girdle, but never beyond the leg's reach
-        half = interp(p.drop + s.vault, self._drops_f, self._sweep_min_f)
-        fs = self._feet_state
-        feet_a = np.empty((1, 4, 3))
-        fold_a = np.empty((1, 4))
-        feet_rows(np.array([theta]), np.array([theta_prev]), np.array([duty]),
-                  np.array([final.duty]), np.array([self.freq]), np.array([v]),
-                  np.array([self.yaw_rate]), np.array([keys]), np.array([key_heading]),
-                  self._offset_1, np.array([trailing]), np.array([p.swing_height]),
-                  np.array([half]), s.reach_margin, fs["stance"], fs["swing_s"], fs["theta_lo"],
-                  fs["theta_td"], fs["planted"], fs["liftoff"], feet_a, fold_a)
-        stance = self.stance = fs["stance"][0].tolist()
-        self.planted = [tuple(f) for f in fs["planted"][0].tolist()]
-        feet = self.feet = [tuple(f) for f in feet_a[0].tolist()]
-        fold = fold_a[0].tolist()
-
-        # 6. spine, height, tail --------------------------------------------------
-        # the concave/convex machine: flexed while no hind foot is down
-        # (double flight, front stance), extended otherwise (spine_state)
-        tgt = self.extended if (stance[2] or stance[3]) else self.flexed
-        rate = 5.0 * abs(self.flexed - self.extended) * self.freq
-        self.spine_angle += min(max(tgt - self.spine_angle, -rate * dt), rate * dt)
-        slow_angle = self.slow_scale * p.spine_amplitude * math.sin(self.theta_s)
-        raw = p.bound * self.spine_angle + (1.0 - p.bound) * slow_angle
-        self.spine_smooth += (raw - self.spine_smooth) * (1.0 - math.exp(-dt / 0.03))
-        sdut = max(duty, 1e-3)
-        support = [math.sin(math.pi * min(max(ui / sdut, 0), 1)) if down else 0.0
-                   for ui, down in zip(u, stance)]
-        bob = 0.6 * p.drop * self.h * (0.5 - sum(support) / 4)
-        # vaulting: each girdle drops as far as its planted feet need
-        mid, fwd = girdles
-        need = [0.0] * 4
-        for i in range(4):
-            if stance[i]:
-                f, m, w = feet[i], mid[i], fwd[i]
-                along = (f[0] - m[0]) * w[0] + (f[1] - m[1]) * w[1] + (f[2] - m[2]) * w[2]
-                need[i] = self.needed_drop(i, along)
-        drop_g = (max(p.drop, max(need[2], need[3])), max(p.drop, max(need[0], need[1])))
-        a = 1.0 - math.exp(-dt / 0.04)
-        d0, d1 = self.drops_now
-        d0, d1 = d0 + (drop_g[0] - d0) * a, d1 + (drop_g[1] - d1) * a
-        self.drops_now = [d0, d1]
-        target_h = self.pelvis_height * (1.0 - d0) + bob
-        self.height += (target_h - self.height) * a
-        pitch = math.atan2((d1 - d0) * self.pelvis_height, self.body_length)
-        # girdle sway from where the left and right feet are (seed figure 5)
-        local = []
-        for i in range(4):
-            g = 1 if i < 2 else 0
-            kx, ky, kz = keys[g]
-            c, sn = math.cos(-key_heading[g]), math.sin(-key_heading[g])
-            fx, fz = feet[i][0] - kx, feet[i][2] - kz
-            local.append((c * fx + sn * fz, -sn * fx + c * fz))
-        sway = []
-        for left, right in ((2, 3), (0, 1)):  # hind, fore
-            width = max(abs(local[left][0] - local[right][0]), 1e-3)
-            sway.append(min(max(0.1 * math.atan2(local[left][1] - local[right][1], width),
-                                -s.max_sway), s.max_sway))
-        # tail: each joint follows the one before with a lag
-        n_tail = len(self.tail)
-        if n_tail:
-            prev = [(0.6 * self.spine_smooth - 0.02 * v) / n_tail,
-                    (-0.8 * self.bend - 0.5 * sway[0]) / n_tail]
-            a = 1.0 - math.exp(-dt / s.tail_lag)
-            tail = []
-            for t in self.tail:
-                tail.append([t[0] + a * (prev[0] - t[0]), t[1] + a * (prev[1] - t[1])])
-                prev = t
-            self.tail = tail
-
+        self._sync_scheduler()
         self.time += dt
-        # the plan in plain floats and lists (step() makes arrays of it)
+        return feet, fold, pitch, sway
+
+    def _advance(self, command: Command, dt: float | None) -> dict:
+        """One step; this frame's plan in plain floats and lists."""
+        feet, fold, pitch, sway = self._plan(command, dt)
+        st = self._s
+        f = feet[0].tolist()
+        self.feet = f
+        fl = fold[0].tolist()
+        theta = st.theta[0].tolist()
+        bend = float(st.bend[0])
+        spine = float(st.spine_smooth[0])
+        # the plan of this frame (step() makes arrays of it, simulate stacks them)
         return {
-            "root": [self.root_xz[0], self.height, self.root_xz[2]],
-            "heading": self.heading,
-            "pitch": pitch,
-            "sway": sway,
-            "bend_yaw": self.bend,
-            "bend_pitch": self.spine_smooth,
-            "feet": feet,
-            "fold": fold,
-            "toe": [0.5 * f for f in fold],
-            "tail": self.tail,
-            "look": 0.5 * self.bend,
-            "contacts": list(stance),
+            "root": [float(st.root_xz[0, 0]), float(st.height[0]), float(st.root_xz[0, 2])],
+            "heading": float(st.heading[0]),
+            "pitch": float(pitch[0]),
+            "sway": sway[0].tolist(),
+            "bend_yaw": bend,
+            "bend_pitch": spine,
+            "feet": f,
+            "fold": fl,
+            "toe": [0.5 * x for x in fl],
+            "tail": st.tail[0].tolist(),
+            "look": 0.5 * bend,
+            "contacts": st.stance[0].tolist(),
             "gait": self.scheduler.label,
-            "phase": u,
-            "speed": v,
-            "duty": duty,
-            "spine": self.spine_smooth,
-            "heading_rate": self.yaw_rate,
-            "amplitude": self.r + [self.r_s],
+            "phase": [(t / TWO_PI) % 1.0 for t in theta],
+            "speed": float(st.speed[0]),
+            "duty": float(st.params[0, _pk.P_DUTY]),
+            "spine": spine,
+            "heading_rate": float(st.yaw_rate[0]),
+            "amplitude": st.r[0].tolist() + [float(st.r_s[0])],
         }
 
     def pose(self, plans: dict[str, np.ndarray]):
@@ -659,10 +595,32 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
     # frame 0 is the starting state; frame k follows k steps of dt
-    # (the plain-float plans of _advance, stacked once: no per-frame arrays)
-    plans = [ctl._advance(first, 0.0)]
-    plans += [ctl._advance(script.command_at((k - 1) * dt), dt) for k in range(1, n)]
-    plan = stack_plans(plans)
+    # (the compiled plan's row copied into the clip's arrays: no per-frame dicts)
+    st = ctl._s
+    n_tail = len(character.tail)
+    root, heading, pitch, sway = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty((n, 2))
+    bend, spine, feet, fold = np.empty(n), np.empty(n), np.empty((n, 4, 3)), np.empty((n, 4))
+    tail, contacts, theta = np.empty((n, n_tail, 2)), np.empty((n, 4), dtype=bool), \
+        np.empty((n, 4))
+    speed, duty, rate, amp = np.empty(n), np.empty(n), np.empty(n), np.empty((n, 5))
+    gaits = []
+    for k in range(n):
+        if k:
+            f, fo, pi, sw = ctl._plan(script.command_at((k - 1) * dt), dt)
+        else:
+            f, fo, pi, sw = ctl._plan(first, 0.0)
+        root[k, 0], root[k, 1], root[k, 2] = st.root_xz[0, 0], st.height[0], st.root_xz[0, 2]
+        heading[k], pitch[k], sway[k] = st.heading[0], pi[0], sw[0]
+        bend[k], spine[k], feet[k], fold[k] = st.bend[0], st.spine_smooth[0], f[0], fo[0]
+        tail[k], contacts[k], theta[k] = st.tail[0], st.stance[0], st.theta[0]
+        speed[k], duty[k], rate[k] = st.speed[0], st.params[0, 0], st.yaw_rate[0]
+        amp[k, :4], amp[k, 4] = st.r[0], st.r_s[0]
+        gaits.append(ctl.scheduler.label)
+    plan = {"root": root, "heading": heading, "pitch": pitch, "sway": sway, "bend_yaw": bend,
+            "bend_pitch": spine, "feet": feet, "fold": fold, "toe": 0.5 * fold, "tail": tail,
+            "look": 0.5 * bend, "contacts": contacts, "phase": np.mod(theta / TWO_PI, 1.0),
+            "speed": speed, "duty": duty, "spine": spine, "heading_rate": rate,
+            "amplitude": amp, "gait": np.array(gaits, dtype=object)}
     local, root, err = ctl.pose(plan)
     return Motion(
         character.skeleton, fps, root, quaternions_from_matrices(local),

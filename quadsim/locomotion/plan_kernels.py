@@ -1,17 +1,20 @@
-"""Compiled per-character stages of the procedural controller's plan.
+"""The procedural controller's per-frame plan, compiled.
 
+:func:`plan_rows` is one step of the whole plan for N rows (characters) as
+one numba kernel: speed and turning (with the clamps reported as flags),
+gait choice with hysteresis and transitions along the duty-factor curve,
+stride limits, the reach governor, the CPG
+(:func:`~quadsim.locomotion.cpg.cpg_step_rows`), the body on its path,
 :func:`feet_rows` (stage 5: lift-off and touchdown, swing progress,
 touchdown targets on the turning arc, Catmull-Rom swing paths) and
 :func:`body_rows` (stage 6: the spine's concave/convex machine and slow
-flexion, vaulting drops, height, pitch, girdle sway, tail) as numba kernels
-looping over rows of characters. :func:`feet_rows` serves both a lone
-:class:`~quadsim.locomotion.controller.ProceduralController` (one row) and
-:class:`~quadsim.locomotion.batch.BatchController` (N rows), so the two agree
-by construction; the lone controller writes stage 6 in plain floats, the
-batch uses :func:`body_rows` (tests hold the two to 1e-9). Their numpy
-counterparts, the tests' reference, are
-:func:`quadsim.locomotion.turning.arc_advance` and
-:func:`quadsim.locomotion.footpath.swing_position`.
+flexion, vaulting drops, height, pitch, girdle sway, tail). A lone
+:class:`~quadsim.locomotion.controller.ProceduralController` runs it on one
+row, :class:`~quadsim.locomotion.batch.BatchController` on N, so the two
+agree by construction. The numpy counterparts of stage 5, the tests'
+reference, are :func:`quadsim.locomotion.turning.arc_advance` and
+:func:`quadsim.locomotion.footpath.swing_position`; of the scheduler,
+:class:`quadsim.locomotion.transition.GaitScheduler`.
 
 Units are SI (m, s, rad); legs in the order LF, RF, LH, RH.
 """
@@ -23,7 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.cpg import TWO_PI
+from quadsim.locomotion.cpg import TWO_PI, cpg_step_rows
 from quadsim.locomotion.footpath import SWING_KNOTS
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
@@ -229,3 +232,374 @@ def body_rows(stance, u, duty, freq, v, bend, theta_s, keys, key_heading, foot_o
             tail[n, k, 0] = t0 + a_tail * (p0 - t0)
             tail[n, k, 1] = t1 + a_tail * (p1 - t1)
             p0, p1 = t0, t1
+
+
+# ---------------------------------------------------------------- the whole plan
+# rows of the per-row constants ``consts`` (NC, N)
+C_H, C_PELVIS, C_HIND_Z, C_BODY, C_STAND_V, C_MAX_V, C_MAX_TURN, C_FLEXED, C_EXTENDED, \
+    C_RMIN, C_SLOW, C_WALK_TOP, C_NTAIL, C_HYST, C_NAUTO = range(15)
+NC = 15
+# entries of the step's scalars ``sc``
+S_DT, S_ACC, S_REACH, S_VAULT, S_MAX_BEND, S_MAX_SWAY, S_A_TURN, S_A_BEND, S_A_SMOOTH, \
+    S_A_DROP, S_A_TAIL, S_MU, S_GAIN, S_COUPLING, S_SPINE_COUPLING = range(15)
+NS = 15
+# columns of a parameter row (the blendable GaitParams)
+P_DUTY, P_PH0, P_COEF, P_MINV, P_SWING, P_DROP, P_BOUND, P_SPAMP = 0, 1, 5, 6, 7, 8, 9, 10
+NP_ = 11
+
+
+@njit(cache=True)
+def _interp1(x, xp, fp):
+    """``numpy.interp(x, xp, fp)`` for one ``x`` (as :func:`quadsim.locomotion.scalar.interp`)."""
+    n = xp.shape[0]
+    if x > xp[n - 1]:
+        return fp[n - 1]
+    if x < xp[0]:
+        return fp[0]
+    if x == xp[n - 1]:
+        return fp[n - 1]
+    j = 0
+    while j + 1 < n and xp[j + 1] <= x:
+        j += 1
+    if j >= n - 1:
+        return fp[n - 1]
+    if xp[j] == x:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+@njit(cache=True)
+def _target_row(table, law, k, g, speed, out):
+    """GaitParams.of(gait ``g`` of kind ``k``, speed) into ``out`` (NP,)."""
+    for c in range(out.shape[0]):
+        out[c] = table[k, g, c]
+    lo, hi, d0, d1 = law[k, g, 0], law[k, g, 1], law[k, g, 2], law[k, g, 3]
+    s = min(max((speed - lo) / (hi - lo), 0.0), 1.0)
+    out[P_DUTY] = d0 + s * (d1 - d0)
+
+
+@njit(cache=True)
+def _scheduled_row(table, law, k, cur, in_tr, elapsed, duration, source, speed, out):
+    """GaitScheduler.params(speed) into ``out``."""
+    _target_row(table, law, k, cur, speed, out)
+    if in_tr:
+        s = min(elapsed / duration, 1.0) ** 2
+        for c in range(out.shape[0]):
+            if c >= P_PH0 and c < P_PH0 + 4:
+                a = source[c]
+                dpsi = (out[c] - a + 0.5) % 1.0 - 0.5
+                out[c] = (a + s * dpsi) % 1.0
+            else:
+                a = source[c]
+                out[c] = a + s * (out[c] - a)
+
+
+@njit(cache=True)
+def _keys_row(root, heading, bend, hind_z, body_length, keys, kh):
+    fh = heading + 0.5 * bend
+    hx = root[0] + math.sin(heading) * hind_z
+    hy = root[1] + 0.0
+    hz = root[2] + math.cos(heading) * hind_z
+    keys[0, 0], keys[0, 1], keys[0, 2] = hx, hy, hz
+    keys[1, 0] = hx + math.sin(fh) * body_length
+    keys[1, 1] = hy + 0.0
+    keys[1, 2] = hz + math.cos(fh) * body_length
+    kh[0] = heading
+    kh[1] = heading + bend
+
+
+@njit(cache=True)
+def _room_row(keys, kh, offset, planted, base, room):
+    """Trailing room (m) of each foot: ``base`` plus how far its planted point
+    is ahead of its mid-stance point along the girdle's forward vector."""
+    for i in range(4):
+        g = 1 if i < 2 else 0
+        c, sn = math.cos(kh[g]), math.sin(kh[g])
+        ox, oy, oz = offset[i, 0], offset[i, 1], offset[i, 2]
+        mx = c * ox + sn * oz + keys[g, 0]
+        my = oy + keys[g, 1]
+        mz = -sn * ox + c * oz + keys[g, 2]
+        room[i] = base + ((planted[i, 0] - mx) * sn + (planted[i, 1] - my) * 0.0
+                          + (planted[i, 2] - mz) * c)
+
+
+@njit(cache=True)
+def _stride_length(p, speed, h):
+    minv = p[P_MINV]
+    vc = max(max(speed, minv), 1e-3)
+    lam = h * p[P_COEF] * (vc * vc / (9.81 * h)) ** 0.3
+    return lam * speed / vc if speed < vc else lam
+
+
+@njit(cache=True)
+def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law, auto,
+              bounds, auto_pos, drops, half_sweep, sweep_min, sweep_cols, foot_offset,
+              speed, yaw_rate, heading, root_xz, bend, theta, r, theta_s, r_s, freq,
+              current, source_name, source, in_transition, elapsed, duration, params,
+              stance, swing_s, theta_lo, theta_td, planted, liftoff, spine_angle,
+              spine_smooth, drops_now, height, tail, feet, fold, pitch, sway, flags, aux):
+    """One step of the whole plan for N rows (characters), compiled: speed and
+    turning, gait choice and transitions, stride limits, the reach governor,
+    the CPG (:func:`~quadsim.locomotion.cpg.cpg_step_rows`), the body on its
+    path, the feet (:func:`feet_rows`) and the body stage (:func:`body_rows`),
+    as :class:`~quadsim.locomotion.controller.ProceduralController` (one row)
+    and :class:`~quadsim.locomotion.batch.BatchController` (N rows) step.
+
+    Commands (N,): ``v_cmd_in`` speed, ``turn`` turn rate, ``head`` heading
+    to steer to (NaN: use the turn rate), ``gait`` requested gait id (-1:
+    automatic). The state arrays are updated in place; ``feet``, ``fold``,
+    ``pitch``, ``sway`` are outputs, ``flags`` (N, 3) bool marks the clamps
+    (gait speed, top speed, turn rate) and ``aux`` (N, 2) holds the speed and
+    the largest turn rate the turn clamp used, for the warnings.
+    """
+    N = theta.shape[0]
+    dt = sc[S_DT]
+    stand = table.shape[1] - 1
+    reach_margin, vault = sc[S_REACH], sc[S_VAULT]
+    v_before = np.empty(N)
+    omega = np.empty(N)
+    psi = np.empty((N, 4))
+    keys = np.empty((N, 2, 3))
+    kh = np.empty((N, 2))
+    room = np.empty(4)
+    tgt = np.empty(params.shape[1])
+    for n in range(N):
+        k = kind[n]
+        h = consts[C_H, n]
+        # 1. speed and turning
+        vc = v_cmd_in[n]
+        halt = vc <= 1e-9
+        g = gait[n]
+        flags[n, 0] = False
+        flags[n, 1] = False
+        flags[n, 2] = False
+        if g >= 0:
+            cap = 1.15 * law[k, g, 1]
+            if vc > cap:
+                flags[n, 0] = True
+                vc = cap
+        if vc > consts[C_MAX_V, n]:
+            flags[n, 1] = True
+            vc = consts[C_MAX_V, n]
+        cur = current[n]
+        if cur == stand or (in_transition[n] and source_name[n] == stand):
+            progress = min(elapsed[n] / duration[n], 1.0) if in_transition[n] else 0.0
+            vc = min(vc, max(progress, 0.0) ** 2 * consts[C_WALK_TOP, n])
+        # the reach governor: no planted foot out of reach before it lifts
+        _keys_row(root_xz[n], heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
+                  keys[n], kh[n])
+        pd = params[n, P_DROP] + vault
+        dmax = max(drops_now[n, 0], drops_now[n, 1])
+        base = _interp1(max(pd, dmax), drops, sweep_min[n])
+        _room_row(keys[n], kh[n], foot_offset[n], planted[n], base, room)
+        duty = params[n, P_DUTY]
+        gov = math.inf
+        for i in range(4):
+            if not stance[n, i]:
+                continue
+            u = (theta[n, i] / TWO_PI) % 1.0
+            lifts = u < duty and 1.0 - MIN_SWING >= duty
+            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / freq[n]
+            den = max(t_lo, dt)
+            num = max(room[i], 0.0)
+            if den == 0.0:
+                if num == 0.0:
+                    gov = math.nan
+                    break
+                continue
+            gov = min(gov, num / den)
+        if gov < vc:
+            vc = gov
+        acc = sc[S_ACC] * dt
+        dv = min(max(vc - speed[n], -acc), acc)
+        v_before[n] = speed[n]
+        v = max(speed[n] + dv, 0.0)
+        speed[n] = v
+        fast = max(v, vc)
+        max_rate = min(consts[C_MAX_TURN, n], max(fast, 0.1 * h) / consts[C_RMIN, n])
+        aux[n, 0] = fast
+        aux[n, 1] = max_rate
+        if not math.isnan(head[n]):
+            err = (head[n] - heading[n] + math.pi) % TWO_PI - math.pi
+            rate = min(max(2.0 * err, -max_rate), max_rate)
+        else:
+            rate = turn[n]
+            if abs(rate) > max_rate:
+                flags[n, 2] = True
+                rate = math.copysign(max_rate, rate)
+        yaw_rate[n] += (rate - yaw_rate[n]) * sc[S_A_TURN]
+
+        # 2. gait: the automatic choice with hysteresis
+        na = int(consts[C_NAUTO, n])
+        kpos = auto_pos[k, cur]
+        choice = -1
+        if kpos >= 0:
+            hy = consts[C_HYST, n]
+            lo = bounds[n, kpos - 1] * (1 - hy) if kpos > 0 else -math.inf
+            hi = bounds[n, kpos] * (1 + hy) if kpos < na - 1 else math.inf
+            if lo <= v and v <= hi:
+                choice = cur
+        if choice < 0:
+            idx = 0
+            for j in range(na - 1):
+                if bounds[n, j] <= v:
+                    idx += 1
+            choice = auto[n, idx]
+        if g >= 0:
+            wanted = g
+            if v > 1.15 * law[k, g, 1]:
+                wanted = choice
+        elif halt and v <= consts[C_STAND_V, n]:
+            wanted = stand
+        else:
+            wanted = choice
+        quick = cur == stand
+        period = 1.0 / max(freq[n], 1e-3)
+        if in_transition[n]:
+            elapsed[n] += dt
+            if elapsed[n] >= duration[n]:
+                in_transition[n] = False
+        if wanted != cur:
+            _scheduled_row(table, law, k, cur, in_transition[n], elapsed[n], duration[n],
+                           source[n], v, tgt)
+            source[n, :] = tgt
+            source_name[n] = cur
+            current[n] = wanted
+            in_transition[n] = True
+            elapsed[n] = 0.0
+            duration[n] = 0.6 if quick else min(max(1.5 * period, 0.5), 2.0)
+        p = params[n]
+        _scheduled_row(table, law, k, current[n], in_transition[n], elapsed[n], duration[n],
+                       source[n], v, p)
+        # stride limits: every leg's sweep at this drop
+        pd = p[P_DROP] + vault
+        half = math.inf
+        for i in range(4):
+            half = min(half, _interp1(pd, drops, half_sweep[n, :, i]))
+        margin = reach_margin - 0.05 * p[P_BOUND]
+        limit = 2.0 * margin * half / max(p[P_DUTY], 1e-3)
+        lam = min(_stride_length(p, v, h), limit)
+        lam_min = min(_stride_length(p, p[P_MINV], h), limit)
+        if v > 1e-6:
+            freq[n] = max(v / lam, p[P_MINV] / lam_min)
+        else:
+            freq[n] = p[P_MINV] / lam_min
+        omega[n] = TWO_PI * freq[n]
+        for i in range(4):
+            psi[n, i] = p[P_PH0 + i]
+
+    # 3. CPG
+    theta_prev = theta.copy()
+    th, rr, ts, rs = cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, sc[S_MU],
+                                   sc[S_GAIN], sc[S_COUPLING], sc[S_SPINE_COUPLING], substeps)
+    for n in range(N):
+        for i in range(4):
+            theta[n, i] = max(th[n, i], theta_prev[n, i])
+            r[n, i] = rr[n, i]
+        theta_s[n] = ts[n]
+        r_s[n] = rs[n]
+
+    # 4. body on its path; stage 5's inputs
+    final = np.empty(N)
+    trailing = np.empty((N, 4), dtype=np.bool_)
+    half_min = np.empty(N)
+    duty_a = np.empty(N)
+    swing_a = np.empty(N)
+    spamp_a = np.empty(N)
+    bound_a = np.empty(N)
+    drop_a = np.empty(N)
+    for n in range(N):
+        h = consts[C_H, n]
+        v = speed[n]
+        heading[n] = heading[n] + yaw_rate[n] * dt
+        kk = 0.5 * (v_before[n] + v) * dt
+        mh = heading[n] - 0.5 * yaw_rate[n] * dt
+        root_xz[n, 0] = root_xz[n, 0] + kk * math.sin(mh)
+        root_xz[n, 1] = root_xz[n, 1] + kk * 0.0
+        root_xz[n, 2] = root_xz[n, 2] + kk * math.cos(mh)
+        mb = sc[S_MAX_BEND]
+        bt = min(max(yaw_rate[n] * consts[C_BODY, n] / max(v, 0.3 * h), -mb), mb)
+        bend[n] += (bt - bend[n]) * sc[S_A_BEND]
+        _keys_row(root_xz[n], heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
+                  keys[n], kh[n])
+        _target_row(table, law, kind[n], current[n], v, tgt)
+        final[n] = tgt[P_DUTY]
+        p = params[n]
+        pd = p[P_DROP] + vault
+        dmax = max(drops_now[n, 0], drops_now[n, 1])
+        base = _interp1(max(pd, dmax), drops, sweep_min[n])
+        _room_row(keys[n], kh[n], foot_offset[n], planted[n], base, room)
+        reach = v * dt
+        for i in range(4):
+            trailing[n, i] = room[i] < reach
+        half_min[n] = _interp1(pd, drops, sweep_min[n])
+        duty_a[n] = p[P_DUTY]
+        swing_a[n] = p[P_SWING]
+        spamp_a[n] = p[P_SPAMP]
+        bound_a[n] = p[P_BOUND]
+        drop_a[n] = p[P_DROP]
+
+    # 5. feet
+    feet_rows(theta, theta_prev, duty_a, final, freq, speed, yaw_rate, keys, kh, foot_offset,
+              trailing, swing_a, half_min, reach_margin, stance, swing_s, theta_lo, theta_td,
+              planted, liftoff, feet, fold)
+    # 6. spine, height, tail
+    u = np.empty((N, 4))
+    for n in range(N):
+        for i in range(4):
+            u[n, i] = (theta[n, i] / TWO_PI) % 1.0
+    body_rows(stance, u, duty_a, freq, speed, bend, theta_s, keys, kh, foot_offset, feet,
+              sweep_cols, drops, consts[C_FLEXED], consts[C_EXTENDED], consts[C_SLOW],
+              spamp_a, bound_a, drop_a, consts[C_H], consts[C_PELVIS], consts[C_BODY],
+              consts[C_NTAIL], reach_margin, sc[S_MAX_SWAY], dt, sc[S_A_SMOOTH],
+              sc[S_A_DROP], sc[S_A_TAIL], spine_angle, spine_smooth, drops_now, height, tail,
+              pitch, sway)
+
+
+#: The per-row state :func:`plan_rows` updates, in its argument order.
+STATE_FIELDS = ("speed", "yaw_rate", "heading", "root_xz", "bend", "theta", "r", "theta_s",
+                "r_s", "freq", "current", "source_name", "source", "in_transition", "elapsed",
+                "duration", "params", "stance", "swing_s", "theta_lo", "theta_td", "planted",
+                "liftoff", "spine_angle", "spine_smooth", "drops_now", "height", "tail")
+
+
+def step_scalars(settings, dt: float) -> np.ndarray:
+    """The step's scalars ``sc`` of :func:`plan_rows` for ``settings`` and ``dt``."""
+    sc = np.zeros(NS)
+    c = settings.cpg
+    sc[S_DT] = dt
+    sc[S_ACC] = settings.acceleration
+    sc[S_REACH] = settings.reach_margin
+    sc[S_VAULT] = settings.vault
+    sc[S_MAX_BEND] = settings.max_bend
+    sc[S_MAX_SWAY] = settings.max_sway
+    sc[S_A_TURN] = 1.0 - math.exp(-dt / settings.turn_response)
+    sc[S_A_BEND] = 1.0 - math.exp(-dt / 0.2)
+    sc[S_A_SMOOTH] = 1.0 - math.exp(-dt / 0.03)
+    sc[S_A_DROP] = 1.0 - math.exp(-dt / 0.04)
+    sc[S_A_TAIL] = 1.0 - math.exp(-dt / settings.tail_lag)
+    sc[S_MU], sc[S_GAIN] = c.mu, c.gain
+    sc[S_COUPLING], sc[S_SPINE_COUPLING] = c.coupling, c.spine_coupling
+    return sc
+
+
+def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps):
+    """:func:`plan_rows` on the constants ``k`` and the state ``s`` (objects with
+    the arrays as attributes). Returns feet (N, 4, 3), fold (N, 4), pitch (N,),
+    sway (N, 2), flags (N, 3) and aux (N, 2)."""
+    n = s.theta.shape[0]
+    feet = np.empty((n, 4, 3))
+    fold = np.empty((n, 4))
+    pitch = np.empty(n)
+    sway = np.empty((n, 2))
+    flags = np.empty((n, 3), dtype=np.bool_)
+    aux = np.empty((n, 2))
+    plan_rows(v_cmd, turn, head, gait, k.kind, k.consts, sc, substeps, k.table, k.law, k.auto,
+              k.bounds, k.auto_pos, k.drops, k.half_sweep, k.sweep_min, k.sweep_cols,
+              k.foot_offset, s.speed, s.yaw_rate, s.heading, s.root_xz, s.bend, s.theta, s.r,
+              s.theta_s, s.r_s, s.freq, s.current, s.source_name, s.source, s.in_transition,
+              s.elapsed, s.duration, s.params, s.stance, s.swing_s, s.theta_lo, s.theta_td,
+              s.planted, s.liftoff, s.spine_angle, s.spine_smooth, s.drops_now, s.height,
+              s.tail, feet, fold, pitch, sway, flags, aux)
+    return feet, fold, pitch, sway, flags, aux
