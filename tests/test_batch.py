@@ -180,3 +180,25 @@ def test_zero_first_step_starting_gaits_and_standing_still_match():
             assert batch.labels[j] == one["gait"]
     assert batch.labels == ["trot", "amble", "stand"]
     assert np.all(frame["contacts"][2])
+
+
+def test_a_large_herd_is_posed_on_threads_exactly_as_row_by_row():
+    from quadsim.locomotion import pose_kernel
+
+    ch = load_character("leopard")
+    n = pose_kernel.PARALLEL_ROWS + 37          # over the threshold, not a multiple of 2
+    herd = BatchController([ch] * n, seeds=range(n))
+    rng = np.random.default_rng(3)
+    speed, turn = rng.uniform(0.5, 9.0, n), rng.uniform(-0.6, 0.6, n)
+    for _ in range(150):
+        plan = herd.step(speed, turn, pose=False)
+    poser = herd.kinds[0].poser
+    packed = pose_kernel.pack_plan(plan, len(ch.tail))
+    threaded = poser.pose_packed(packed)               # pose_rows_parallel
+    args = poser._kernel_args
+    J = ch.skeleton.n_joints
+    serial = (np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4)))
+    pose_kernel.pose_rows(np.ascontiguousarray(packed), *args, *serial)
+    for a, b in zip(threaded, serial):
+        np.testing.assert_array_equal(a, b)
+    assert np.ptp(np.linalg.norm(threaded[1][:, 0], axis=1)) > 1.0   # the herd spread out

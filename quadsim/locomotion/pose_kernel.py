@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import get_num_threads, njit, prange
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -299,3 +299,29 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
                                    leg_int, leg_top, leg_bones, leg_scal, phi, L)
         for j in range(1, J):
             _fk_joint(j, parents[j], L, offsets, G, P)
+
+
+#: Fewest rows for which :func:`pose_rows_parallel` splits the work over threads.
+PARALLEL_ROWS = 256
+
+
+@njit(cache=True, parallel=True)
+def pose_rows_parallel(plan, parents, offsets, spine, tail, neck, trunk, thorax,
+                       leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
+    """:func:`pose_rows` with the rows split into one block per thread.
+
+    Rows are independent and each block runs :func:`pose_rows` with its own
+    scratch arrays, so the result is the same as :func:`pose_rows`' whatever
+    the number of threads (numba's ``NUMBA_NUM_THREADS``, by default one per
+    core). Same parameters.
+    """
+    T = plan.shape[0]
+    n = get_num_threads()
+    size = (T + n - 1) // n
+    for b in prange(n):
+        a = b * size
+        e = min(T, a + size)
+        if a < e:
+            pose_rows(plan[a:e], parents, offsets, spine, tail, neck, trunk, thorax,
+                      leg_int, leg_top, leg_bones, leg_scal, local[a:e], positions[a:e],
+                      err[a:e])

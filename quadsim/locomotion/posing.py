@@ -17,7 +17,14 @@ from functools import cached_property
 import numpy as np
 
 from quadsim.kinematics.ik import LegGeometry, leg_geometry
-from quadsim.locomotion.pose_kernel import pack_legs, pack_plan, plan_columns, pose_rows
+from quadsim.locomotion.pose_kernel import (
+    PARALLEL_ROWS,
+    pack_legs,
+    pack_plan,
+    plan_columns,
+    pose_rows,
+    pose_rows_parallel,
+)
 from quadsim.skeleton.character import Character
 
 #: Plan fields and their per-frame shapes (T leading).
@@ -110,8 +117,8 @@ class Poser:
         local = np.empty((T, J, 3, 3))
         positions = np.empty((T, J, 3))
         err = np.empty((T, 4))
-        pose_rows(np.ascontiguousarray(rows, dtype=float), *self._kernel_args,
-                  local, positions, err)
+        kernel = pose_rows_parallel if T >= PARALLEL_ROWS else pose_rows
+        kernel(np.ascontiguousarray(rows, dtype=float), *self._kernel_args, local, positions, err)
         return local, positions, err
 
     def pose_one(self, plan: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
