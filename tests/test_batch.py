@@ -202,3 +202,42 @@ def test_a_large_herd_is_posed_on_threads_exactly_as_row_by_row():
     for a, b in zip(threaded, serial):
         np.testing.assert_array_equal(a, b)
     assert np.ptp(np.linalg.norm(threaded[1][:, 0], axis=1)) > 1.0   # the herd spread out
+
+
+def test_a_large_mixed_herd_plans_on_threads_exactly_as_on_one(monkeypatch):
+    from quadsim.locomotion import batch as batch_mod
+
+    names = ("leopard", "horse", "dog_cub")
+    chars = [load_character(nm) for nm in names]
+    n = batch_mod.PARALLEL_ROWS + 61                     # over the threshold, odd
+    herd = [chars[i % 3] for i in range(n)]
+    starts = [(None, "walk", "trot")[(i // 3) % 3] for i in range(n)]
+    rng = np.random.default_rng(11)
+    top = np.array([max_speed(ch) for ch in herd])
+    frac = rng.uniform(0.0, 1.1, (4, n))                 # some above the top speed
+    turn = rng.uniform(-1.5, 1.5, (4, n))
+    heads = np.where(rng.random((4, n)) < 0.3, rng.uniform(-3.0, 3.0, (4, n)), np.nan)
+    asks = [[(None, None, "walk", "trot")[(i + k) % 4] for i in range(n)] for k in range(4)]
+
+    def run():
+        b = BatchController(herd, seeds=range(n), gaits=starts)
+        gaits = [b.gait_ids(a) for a in asks]
+        out = []
+        for f in range(200):
+            k = f // 50
+            fr = b.step(frac[k] * top, turn[k], heads[k], gaits[k], pose=False)
+            out.append((fr["root"], fr["feet"], fr["contacts"], fr["tail"], b.labels))
+        return out
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        threaded = run()                                  # plan_rows_parallel
+        monkeypatch.setattr(batch_mod, "PARALLEL_ROWS", 10 ** 9)
+        serial = run()                                    # plan_rows
+    for a, b in zip(threaded, serial):
+        for x, y in zip(a[:4], b[:4]):
+            np.testing.assert_array_equal(x, y)
+        assert a[4] == b[4]
+    labels = {lab for fr in threaded for lab in fr[4]}
+    assert len(labels) > 3 and any("->" in lab for lab in labels)   # gaits changed
+    assert np.ptp(np.linalg.norm(threaded[-1][0], axis=1)) > 1.0    # the herd spread out

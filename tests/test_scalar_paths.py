@@ -1,7 +1,7 @@
 """The plain-float and compiled forms used for speed equal the array forms.
 
-:func:`quadsim.locomotion.scalar.interp` must agree with ``numpy.interp``
-(inside, at knots and beyond the ends). The compiled kernels shared by the
+The compiled one-point interpolation of the plan kernel must agree with
+``numpy.interp`` (inside, at knots and beyond the ends). The compiled kernels shared by the
 single and batched paths must agree with the numpy forms: the CPG step
 (also at zero amplitude), the feet stage against the turning arc and the
 swing spline (a straight and a turning arc, progress 0 to touchdown), and
@@ -14,12 +14,11 @@ import pytest
 
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import matrices_yaw_pitch
-from quadsim.locomotion import scalar
 from quadsim.locomotion.cpg import CPGParams, cpg_step, cpg_step_rows
 from quadsim.locomotion.footpath import swing_position
 from quadsim.locomotion.pose_kernel import pack_plan
 from quadsim.locomotion.posing import Poser
-from quadsim.locomotion.plan_kernels import MIN_SWING, feet_rows
+from quadsim.locomotion.plan_kernels import MIN_SWING, _interp1, feet_rows
 from quadsim.locomotion.turning import arc_advance, rotate_y
 from quadsim.skeleton.character import load_character
 from quadsim.skeleton.fk import forward_kinematics
@@ -32,9 +31,9 @@ def test_interp_equals_numpy_inside_at_knots_and_beyond_the_ends():
     fp = [0.0, 0.3, 0.35, 0.5, 0.9, 1.2, 1.3]
     xs = [-1.0, 0.0, 0.05, 0.1, 0.2, 0.25, 0.39, 0.4, 0.55, 0.7, 2.0]
     xs += list(np.random.default_rng(0).uniform(-0.1, 0.8, 50))
+    xp, fp = np.array(xp), np.array(fp)
     for x in xs:
-        assert scalar.interp(x, xp, fp) == pytest.approx(float(np.interp(x, xp, fp)),
-                                                         abs=TOL), x
+        assert _interp1(x, xp, fp) == pytest.approx(float(np.interp(x, xp, fp)), abs=TOL), x
 
 
 def test_compiled_cpg_step_equals_the_array_network():

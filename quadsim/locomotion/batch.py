@@ -48,7 +48,7 @@ from quadsim.locomotion.cpg import TWO_PI
 from quadsim.locomotion.gaits import GAIT_NAMES, resolve_gait_name
 from quadsim.locomotion import plan_kernels as _pk
 from quadsim.locomotion.plan_kernels import run_plan, step_scalars
-from quadsim.locomotion.pose_kernel import pack_plan
+from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan
 from quadsim.skeleton.character import Character
 
 _STAND = len(GAIT_NAMES)
@@ -346,12 +346,14 @@ class BatchController:
         if sc is None:
             sc = self._sc[dt] = step_scalars(self.settings, dt)
         # the whole plan, compiled: the kernel a lone controller steps with
-        # (plan_kernels.plan_rows), here over N rows; the state is updated in place
+        # (plan_kernels.plan_rows), here over N rows; the state is updated in place.
+        # From PARALLEL_ROWS rows on, one block of rows per thread
+        # (plan_rows_parallel): the same result whatever the number of threads
         feet, fold, pitch, sway, flags, aux = run_plan(
             self._k, self, np.ascontiguousarray(v_cmd, dtype=float),
             np.ascontiguousarray(np.where(np.isfinite(head), 0.0, turn), dtype=float),
             np.ascontiguousarray(head, dtype=float), np.ascontiguousarray(gait, dtype=np.int64),
-            sc, self.settings.cpg.substeps)
+            sc, self.settings.cpg.substeps, parallel=self.n >= PARALLEL_ROWS)
         self._warn("gait_speed", flags[:, 0], "speed above what the requested gait reaches")
         self._warn("speed", flags[:, 1], "speed above the character's fastest gait")
         self._warn("turn", flags[:, 2], "turn rate beyond the character's maximum")

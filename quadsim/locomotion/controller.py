@@ -50,7 +50,7 @@ from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.commands import Command, Script
-from quadsim.locomotion.cpg import CPGParams
+from quadsim.locomotion.cpg import TWO_PI, CPGParams
 from quadsim.locomotion.gaits import (
     GAIT_NAMES,
     Gait,
@@ -62,7 +62,6 @@ from quadsim.locomotion.gaits import (
 from quadsim.locomotion import plan_kernels as _pk
 from quadsim.locomotion.plan_kernels import run_plan, step_scalars
 from quadsim.locomotion.posing import Poser
-from quadsim.locomotion.scalar import TWO_PI, interp
 from quadsim.locomotion.transition import GaitParams, GaitScheduler
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
@@ -224,11 +223,6 @@ class ProceduralController:
         self.foot_offset[:, Y] = 0.0
         self.foot_offset[:, 0] = feet[:, 0]  # lateral offset from the mid-line
         self.tail_rest = np.zeros((len(ch.tail), 2))
-        # plain-float copies for the per-step maths (quadsim.locomotion.scalar)
-        self._drops_f = self.drops.tolist()
-        self._sweep_cols_f = tuple(c.tolist() for c in self._sweep_cols)
-        self._sweep_min_f = self._sweep_min.tolist()
-        self._offset_f = tuple(tuple(o) for o in self.foot_offset.tolist())
         self._offset_1 = np.ascontiguousarray(self.foot_offset[None], dtype=float)
 
     def _tables(self) -> None:
@@ -398,8 +392,7 @@ class ProceduralController:
         The bounding gaits keep a further 5 % in hand for the spine's flexion,
         which moves the girdles against the feet.
         """
-        drops = self._drops_f
-        half = min(interp(drop, drops, col) for col in self._sweep_cols_f)
+        half = min(float(np.interp(drop, self.drops, col)) for col in self._sweep_cols)
         margin = self.settings.reach_margin - 0.05 * bound
         return 2.0 * margin * half / max(duty, 1e-3)
 
@@ -407,7 +400,7 @@ class ProceduralController:
         """Body drop (fraction of pelvis height) at which a planted foot ``offset``
         metres fore or aft of its mid-stance point is within the leg's reach margin."""
         x = abs(offset) / self.settings.reach_margin
-        return interp(x, self._sweep_cols_f[leg], self._drops_f)
+        return float(np.interp(x, self._sweep_cols[leg], self.drops))
 
     # ------------------------------------------------------------ stepping
     def step(self, command: Command, dt: float | None = None, *, pose: bool = True) -> dict:

@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from numba import get_num_threads, njit, prange
 
 from quadsim.locomotion.cpg import TWO_PI, cpg_step_rows
 from quadsim.locomotion.footpath import SWING_KNOTS
@@ -250,7 +250,7 @@ NP_ = 11
 
 @njit(cache=True)
 def _interp1(x, xp, fp):
-    """``numpy.interp(x, xp, fp)`` for one ``x`` (as :func:`quadsim.locomotion.scalar.interp`)."""
+    """``numpy.interp(x, xp, fp)`` for one ``x`` (the formula and order of operations of ``numpy.interp``)."""
     n = xp.shape[0]
     if x > xp[n - 1]:
         return fp[n - 1]
@@ -557,6 +557,47 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
               pitch, sway)
 
 
+@njit(cache=True, parallel=True)
+def plan_rows_parallel(n_blocks, v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law,
+                       auto, bounds, auto_pos, drops, half_sweep, sweep_min, sweep_cols,
+                       foot_offset, speed, yaw_rate, heading, root_xz, bend, theta, r, theta_s,
+                       r_s, freq, current, source_name, source, in_transition, elapsed,
+                       duration, params, stance, swing_s, theta_lo, theta_td, planted,
+                       liftoff, spine_angle, spine_smooth, drops_now, height, tail, feet, fold,
+                       pitch, sway, flags, aux):
+    """:func:`plan_rows` with the rows split into one block per thread.
+
+    Rows are independent (no reduction over rows; each block's
+    :func:`plan_rows` has its own scratch arrays), so the result is the same
+    as :func:`plan_rows`' whatever the number of threads. ``n_blocks`` is
+    the number of blocks, one a thread (:func:`numba.get_num_threads`,
+    passed in rather than read in the kernel, which could not then be cached
+    on disk); the other parameters are :func:`plan_rows`'.
+    Sliced per block: the commands, ``kind``, ``consts`` along its second
+    (row) axis, the per-row constants ``auto``, ``bounds``, ``half_sweep``,
+    ``sweep_min``, ``sweep_cols``, ``foot_offset``, every state array and
+    the outputs; shared: ``sc``, ``substeps`` and the per-kind tables
+    ``table``, ``law``, ``auto_pos`` (indexed by ``kind``) and ``drops``.
+    """
+    N = theta.shape[0]
+    size = (N + n_blocks - 1) // n_blocks
+    for b in prange(n_blocks):
+        a = b * size
+        e = min(N, a + size)
+        if a < e:
+            plan_rows(v_cmd_in[a:e], turn[a:e], head[a:e], gait[a:e], kind[a:e],
+                      consts[:, a:e], sc, substeps, table, law, auto[a:e], bounds[a:e],
+                      auto_pos, drops, half_sweep[a:e], sweep_min[a:e], sweep_cols[a:e],
+                      foot_offset[a:e], speed[a:e], yaw_rate[a:e], heading[a:e],
+                      root_xz[a:e], bend[a:e], theta[a:e], r[a:e], theta_s[a:e], r_s[a:e],
+                      freq[a:e], current[a:e], source_name[a:e], source[a:e],
+                      in_transition[a:e], elapsed[a:e], duration[a:e], params[a:e],
+                      stance[a:e], swing_s[a:e], theta_lo[a:e], theta_td[a:e],
+                      planted[a:e], liftoff[a:e], spine_angle[a:e], spine_smooth[a:e],
+                      drops_now[a:e], height[a:e], tail[a:e], feet[a:e], fold[a:e],
+                      pitch[a:e], sway[a:e], flags[a:e], aux[a:e])
+
+
 #: The per-row state :func:`plan_rows` updates, in its argument order.
 STATE_FIELDS = ("speed", "yaw_rate", "heading", "root_xz", "bend", "theta", "r", "theta_s",
                 "r_s", "freq", "current", "source_name", "source", "in_transition", "elapsed",
@@ -584,10 +625,11 @@ def step_scalars(settings, dt: float) -> np.ndarray:
     return sc
 
 
-def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps):
+def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps, parallel: bool = False):
     """:func:`plan_rows` on the constants ``k`` and the state ``s`` (objects with
-    the arrays as attributes). Returns feet (N, 4, 3), fold (N, 4), pitch (N,),
-    sway (N, 2), flags (N, 3) and aux (N, 2)."""
+    the arrays as attributes); :func:`plan_rows_parallel` (the same result,
+    on every thread) if ``parallel``. Returns feet (N, 4, 3), fold (N, 4),
+    pitch (N,), sway (N, 2), flags (N, 3) and aux (N, 2)."""
     n = s.theta.shape[0]
     feet = np.empty((n, 4, 3))
     fold = np.empty((n, 4))
@@ -595,11 +637,13 @@ def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps):
     sway = np.empty((n, 2))
     flags = np.empty((n, 3), dtype=np.bool_)
     aux = np.empty((n, 2))
-    plan_rows(v_cmd, turn, head, gait, k.kind, k.consts, sc, substeps, k.table, k.law, k.auto,
-              k.bounds, k.auto_pos, k.drops, k.half_sweep, k.sweep_min, k.sweep_cols,
-              k.foot_offset, s.speed, s.yaw_rate, s.heading, s.root_xz, s.bend, s.theta, s.r,
-              s.theta_s, s.r_s, s.freq, s.current, s.source_name, s.source, s.in_transition,
-              s.elapsed, s.duration, s.params, s.stance, s.swing_s, s.theta_lo, s.theta_td,
-              s.planted, s.liftoff, s.spine_angle, s.spine_smooth, s.drops_now, s.height,
-              s.tail, feet, fold, pitch, sway, flags, aux)
+    lead = (get_num_threads(),) if parallel else ()
+    kernel = plan_rows_parallel if parallel else plan_rows
+    kernel(*lead, v_cmd, turn, head, gait, k.kind, k.consts, sc, substeps, k.table, k.law,
+           k.auto, k.bounds, k.auto_pos, k.drops, k.half_sweep, k.sweep_min, k.sweep_cols,
+           k.foot_offset, s.speed, s.yaw_rate, s.heading, s.root_xz, s.bend, s.theta, s.r,
+           s.theta_s, s.r_s, s.freq, s.current, s.source_name, s.source, s.in_transition,
+           s.elapsed, s.duration, s.params, s.stance, s.swing_s, s.theta_lo, s.theta_td,
+           s.planted, s.liftoff, s.spine_angle, s.spine_smooth, s.drops_now, s.height,
+           s.tail, feet, fold, pitch, sway, flags, aux)
     return feet, fold, pitch, sway, flags, aux

@@ -29,7 +29,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import get_num_threads, njit, prange
+from numba import njit, prange
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -306,17 +306,19 @@ PARALLEL_ROWS = 256
 
 
 @njit(cache=True, parallel=True)
-def pose_rows_parallel(plan, parents, offsets, spine, tail, neck, trunk, thorax,
+def pose_rows_parallel(n_blocks, plan, parents, offsets, spine, tail, neck, trunk, thorax,
                        leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
-    """:func:`pose_rows` with the rows split into one block per thread.
+    """:func:`pose_rows` with the rows split into ``n_blocks`` blocks, run on threads.
 
     Rows are independent and each block runs :func:`pose_rows` with its own
     scratch arrays, so the result is the same as :func:`pose_rows`' whatever
-    the number of threads (numba's ``NUMBA_NUM_THREADS``, by default one per
-    core). Same parameters.
+    the number of blocks or threads. ``n_blocks`` is passed in (the caller
+    gives ``numba.get_num_threads()``, one block per core by default) rather
+    than asked for inside, which would keep numba from caching the kernel.
+    The other parameters are :func:`pose_rows`'.
     """
     T = plan.shape[0]
-    n = get_num_threads()
+    n = max(n_blocks, 1)
     size = (T + n - 1) // n
     for b in prange(n):
         a = b * size

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numba import get_num_threads
 
 from quadsim.kinematics.ik import LegGeometry, leg_geometry
 from quadsim.locomotion.pose_kernel import (
@@ -117,8 +118,11 @@ class Poser:
         local = np.empty((T, J, 3, 3))
         positions = np.empty((T, J, 3))
         err = np.empty((T, 4))
-        kernel = pose_rows_parallel if T >= PARALLEL_ROWS else pose_rows
-        kernel(np.ascontiguousarray(rows, dtype=float), *self._kernel_args, local, positions, err)
+        rows = np.ascontiguousarray(rows, dtype=float)
+        if T >= PARALLEL_ROWS:
+            pose_rows_parallel(get_num_threads(), rows, *self._kernel_args, local, positions, err)
+        else:
+            pose_rows(rows, *self._kernel_args, local, positions, err)
         return local, positions, err
 
     def pose_one(self, plan: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
