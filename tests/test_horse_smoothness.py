@@ -22,7 +22,7 @@ from quadsim.analysis.metrics import (
 )
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.legs import place_feet, two_bone
-from quadsim.horse.turning import place_feet_pose
+from quadsim.horse.place_kernel import two_bone_row
 from quadsim.locomotion.commands import Command, Script
 from quadsim.locomotion.controller import QuadsimClampWarning
 from quadsim.skeleton.fk import forward_kinematics
@@ -157,7 +157,7 @@ def test_a_foot_lifts_off_as_the_clip_lifts_it(horse, db):
 
 
 def test_one_two_bone_ik_for_clips_and_poses(horse, db):
-    """The four-leg batch of one pose gives exactly the per-leg batch over frames."""
+    """The controller's compiled IK of one pose's legs gives exactly the clip editor's."""
     clip = HorseDataController(horse, db).expanded("trot", 4.0)
     m = clip.motion
     targets = m.foot_positions() + np.array([0.03, -0.02, 0.05])
@@ -167,9 +167,12 @@ def test_one_two_bone_ik_for_clips_and_poses(horse, db):
     pairs = (np.array([leg.chain[leg.ik_start] for leg in horse.legs]),
              np.array([leg.chain[leg.ik_start + 1] for leg in horse.legs]))
     one = Motion(skel, m.fps, m.root_positions[5:6], m.rotations[5:6])
-    local = one.local_matrices[0]
-    W, P = forward_kinematics(skel, local, m.root_positions[5])
-    got = place_feet_pose(skel.parents, pairs, feet, local, W, P, targets[5])
+    got = np.array(one.local_matrices[0])
+    W, P = forward_kinematics(skel, got, m.root_positions[5])
+    work = np.empty((4, 3, 3))
+    for i, (top, mid) in enumerate(zip(*pairs)):
+        two_bone_row(P[top], P[mid], P[feet[i]], W[skel.parents[top]], W[top], W[mid],
+                     targets[5, i], got[top], got[mid], work)
     moved = Motion(skel, m.fps, m.root_positions[5:6], want[5:6]).local_matrices[0]
     np.testing.assert_allclose(got, moved, atol=1e-9)
     # and the feet reach their (reachable) targets

@@ -78,6 +78,7 @@ World placement (every mode, every frame; :mod:`quadsim.horse.turning`):
 
 from __future__ import annotations
 
+import bisect
 import math
 import warnings
 
@@ -85,31 +86,18 @@ import numpy as np
 
 from ..analysis.metrics import foot_contacts
 from ..errors import InputError
-from ..kinematics.rotations import (
-    matrices_about_axis,
-    matrices_from_quaternions,
-    quaternion_slerp,
-    quaternions_from_matrices,
-)
 from ..locomotion.commands import Command, Script
 from ..locomotion.controller import QuadsimClampWarning
 from ..skeleton.character import Character
-from ..skeleton.fk import forward_kinematics
 from ..skeleton.motion import Motion
-from .database import ClipDatabase, load_default_database, sample_motion
-from .root import FLIGHT, clip_stance_cycles, in_stance
+from . import turning
+from .database import ClipDatabase, load_default_database
+from .place_kernel import N_SCALARS, SCALARS, place_row, sample_row, slerp_into, stance_row
+from .root import FLIGHT, clip_stance_cycles
 from .slope import Ground
 from .speed import HOYT, expand
-from .timewarp import REFERENCE, leg_times, sample_cycle, transition_motion
-from .turning import (
-    GROUND_BAND,
-    LOOK_AHEAD,
-    MAX_YAW_LEAD,
-    BodyLead,
-    FootPlanter,
-    apply_body_lead,
-    place_feet_pose,
-)
+from .timewarp import REFERENCE, leg_times, transition_motion
+from .turning import GROUND_BAND, LOOK_AHEAD, BodyLead, FootPlanter
 
 #: Gaits chosen by speed, slowest first (amble and rack only on request).
 AUTO_GAITS = ("walk", "trot", "canter", "gallop")
@@ -173,9 +161,21 @@ def _smooth(x: float) -> float:
     return x * x * (3.0 - 2.0 * x)
 
 
-def _rotate(yaw: float, v: np.ndarray) -> np.ndarray:
-    c, s = math.cos(yaw), math.sin(yaw)
-    return np.array([c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]])
+class _Packed:
+    """A clip's arrays for the compiled sampling: one cycle closed by its first frame
+    (the root's travel added), and its contacts (:func:`~.place_kernel.stance_row`)."""
+
+    def __init__(self, clip, stance: list[np.ndarray]):
+        m = clip.motion
+        self.root = np.ascontiguousarray(np.concatenate(
+            [m.root_positions, m.root_positions[:1] + [0.0, 0.0, clip.speed * clip.period]]),
+            dtype=float)
+        self.rot = np.ascontiguousarray(np.concatenate([m.rotations, m.rotations[:1]]),
+                                        dtype=float)
+        self.count = np.array([len(x) for x in stance], dtype=np.int64)
+        self.on_off = np.zeros((4, max(1, int(self.count.max())), 2))
+        for j, x in enumerate(stance):
+            self.on_off[j, :len(x)] = x
 
 
 class HorseDataController:
@@ -206,9 +206,12 @@ class HorseDataController:
         self.leap_clip = leaps[0] if leaps else None
         if self.leap_clip is not None:
             lm = self.leap_clip.motion
-            self._leap_contacts = foot_contacts(lm.foot_positions(), lm.fps)
+            self._leap_contacts = np.ascontiguousarray(
+                foot_contacts(lm.foot_positions(), lm.fps), dtype=bool)
         self._cache: dict = {}
         self._stance: dict = {}
+        self._packed: dict = {}
+        self._clips = {g: self.db.by_gait(g) for g in self.db.gaits}
         self.gait: str | None = None
         self.clip = None
         self.phase = 0.0            # generic time in the current clip (cycles, unwrapped)
@@ -226,26 +229,54 @@ class HorseDataController:
         self._turn_warned = False
         self._yaw_prev = 0.0
         self._yaw_lead = 0.0
-        self.pitch = 0.0            # body pitch, nose up (rad)
         self.stand_w = 0.0          # 0 moving .. 1 standing square
         self._stand_goal_last = 0.0
         self.ground = Ground()
         self._slope = 0.0
         self.lead = BodyLead(character)
         self.planter = FootPlanter()
-        self._feet = np.array([leg.foot for leg in character.legs])
-        self._pair = (np.array([leg.chain[leg.ik_start] for leg in character.legs]),
-                      np.array([leg.chain[leg.ik_start + 1] for leg in character.legs]))
-        self.sag = 0.0              # how far the body is lowered for its planted legs (m)
-        rest = character.skeleton.rest_positions
-        tops = np.array([rest[leg.chain[leg.ik_start], 2] for leg in character.legs]) - rest[0, 2]
+        skel = character.skeleton
+        self._feet = np.array([leg.foot for leg in character.legs], dtype=np.int64)
+        pair = (np.array([leg.chain[leg.ik_start] for leg in character.legs], dtype=np.int64),
+                np.array([leg.chain[leg.ik_start + 1] for leg in character.legs], dtype=np.int64))
+        rest = skel.rest_positions
+        tops = rest[pair[0], 2] - rest[0, 2]
         self._girdles = (float(tops[2:].mean()), float(tops[:2].mean()))
         self._centre = 0.5 * sum(self._girdles)
         self._rest_height = float(rest[0, 1] - rest[self._feet, 1].mean())
+        # the compiled placement's constants and state (quadsim.horse.place_kernel)
+        J = skel.n_joints
+        self._parents = np.ascontiguousarray(skel.parents, dtype=np.int64)
+        self._offsets = np.ascontiguousarray(skel.offsets, dtype=float)
+        self._ints = np.concatenate([[len(self.lead.chain)], self.lead.chain, self._feet,
+                                     *pair]).astype(np.int64)
+        self._scal = np.zeros(N_SCALARS)
+        for name, value in (("centre", self._centre), ("hind", self._girdles[0]),
+                            ("fore", self._girdles[1]), ("look_distance", LOOK_DISTANCE),
+                            ("pitch_tau", PITCH_TAU), ("sag_tau", SAG_TAU), ("reach", REACH),
+                            ("shift_speed", SHIFT_SPEED), ("root_band", ROOT_BAND),
+                            ("ground_band", GROUND_BAND), ("swing_fade", turning.SWING_FADE),
+                            ("swing_low", turning.SWING_LOW), ("swing_high", turning.SWING_HIGH),
+                            ("max_yaw_lead", turning.MAX_YAW_LEAD),
+                            ("max_pitch_lead", turning.MAX_PITCH_LEAD)):
+            self._scal[SCALARS.index(name)] = value
+        self._scratch = np.empty((J + 16, 3, 3))
+        self._rest_q = np.zeros((J, 4))
+        self._rest_q[:, 0] = 1.0
         self.max_turn_rate = math.radians(float(
             character.locomotion.get("max_turn_rate_deg_s", math.degrees(MAX_TURN_RATE))))
 
     # ------------------------------------------------------------ state
+    @property
+    def pitch(self) -> float:
+        """Body pitch (rad), nose up: follows the ground between the hips and the shoulders."""
+        return float(self._scal[SCALARS.index("pitch")])
+
+    @property
+    def sag(self) -> float:
+        """How far the body is lowered for its planted legs (m)."""
+        return float(self._scal[SCALARS.index("sag")])
+
     @property
     def speed(self) -> float:
         """The speed being played (m/s), 0 before the first step.
@@ -268,23 +299,23 @@ class HorseDataController:
     # ------------------------------------------------------------ helpers
     def _gait_for(self, speed: float) -> str:
         b = self.bounds
-        k = int(np.searchsorted(b, speed))
+        k = bisect.bisect_left(b, speed)
         if self.gait in self.auto:
             cur = self.auto.index(self.gait)
-            lo = b[cur - 1] * (1 - HYSTERESIS) if cur > 0 else -np.inf
-            hi = b[cur] * (1 + HYSTERESIS) if cur < len(b) else np.inf
+            lo = b[cur - 1] * (1 - HYSTERESIS) if cur > 0 else -math.inf
+            hi = b[cur] * (1 + HYSTERESIS) if cur < len(b) else math.inf
             if lo <= speed <= hi:
                 return self.gait
         return self.auto[k]
 
     def expanded(self, gait: str, speed: float):
         """The gait's nearest clip expanded to ``speed`` (quantised, cached)."""
-        clips = self.db.by_gait(gait)
+        clips = self._clips.get(gait)
         if not clips:
             raise InputError(f"the clip database has no {gait!r} clip; "
                              f"it has: {', '.join(self.db.gaits)}")
-        speed = float(np.clip(speed, clips[0].speed * SPEED_REACH[0],
-                              clips[-1].speed * SPEED_REACH[1]))
+        speed = min(max(float(speed), clips[0].speed * SPEED_REACH[0]),
+                    clips[-1].speed * SPEED_REACH[1])
         q = round(math.log(speed) / math.log1p(SPEED_STEP))
         key = (gait, q)
         if key not in self._cache:
@@ -307,19 +338,33 @@ class HorseDataController:
             self._stance[clip.name] = clip_stance_cycles(clip)
         return self._stance[clip.name]
 
+    def _pack(self, clip) -> _Packed:
+        pk = self._packed.get(clip)
+        if pk is None:
+            pk = self._packed[clip] = _Packed(clip, self._stance_of(clip))
+        return pk
+
     def _steady_local(self, clip, phase: float):
         """Local root (3,) (travel unwrapped) and rotations (J, 4) at ``phase``."""
-        L = clip.frames
-        m = clip.motion
-        ext = np.concatenate([m.root_positions,
-                              m.root_positions[:1] + [0.0, 0.0, clip.speed * clip.period]])
-        f = (phase % 1.0) * L
-        i0 = int(math.floor(f)) % L
-        a = f - math.floor(f)
-        root = ext[i0] * (1 - a) + ext[i0 + 1] * a
+        pk = self._pack(clip)
+        f = (phase % 1.0) * clip.frames
+        fl = math.floor(f)
+        root = np.empty(3)
+        q = np.empty(self._rest_q.shape)
+        sample_row(pk.root, pk.rot, int(fl) % clip.frames, int(fl) % clip.frames + 1, f - fl,
+                   root, q)
         root[2] += math.floor(phase) * clip.speed * clip.period
-        q, _ = sample_cycle(clip, np.array([phase]))
-        return root, q[0]
+        return root, q
+
+    def _sample(self, motion: Motion, f: float):
+        """Root (3,) and rotations (J, 4) of ``motion`` at fractional frame ``f``."""
+        f = min(max(f, 0.0), len(motion) - 1.0)
+        i0 = int(math.floor(f))
+        root = np.empty(3)
+        q = np.empty(self._rest_q.shape)
+        sample_row(motion.root_positions, motion.rotations, i0, min(i0 + 1, len(motion) - 1),
+                   f - i0, root, q)
+        return root, q
 
     def _target(self, command: Command) -> tuple[str, float]:
         if self._leap_pending and self.leap_clip is not None:
@@ -371,8 +416,8 @@ class HorseDataController:
                     "clamped", QuadsimClampWarning, stacklevel=4)
         else:
             want = 0.0
-        want = float(np.clip(want, -wmax, wmax))
-        self.omega += float(np.clip(want - self.omega, -TURN_ACCEL * dt, TURN_ACCEL * dt))
+        want = min(max(want, -wmax), wmax)
+        self.omega += min(max(want - self.omega, -TURN_ACCEL * dt), TURN_ACCEL * dt)
         if command.heading is not None and abs(self.omega * dt) > abs(lead) \
                 and self.omega * lead >= 0:
             self.omega = lead / dt
@@ -450,8 +495,8 @@ class HorseDataController:
                 self.phase = 0.0
                 self._local_prev, _ = self._steady_local(new, 0.0)
             gait, speed = self.gait, self.clip.speed
-            self.stand_w = float(np.clip(self.stand_w + np.clip(
-                stand_goal - self.stand_w, -dt / STAND_TIME, dt / STAND_TIME), 0.0, 1.0))
+            step = min(max(stand_goal - self.stand_w, -dt / STAND_TIME), dt / STAND_TIME)
+            self.stand_w = min(max(self.stand_w + step, 0.0), 1.0)
         if self.mode == "steady":
             if gait != self.gait:
                 self._start_transition(gait, speed)
@@ -515,10 +560,7 @@ class HorseDataController:
         label = self.gait
         if self.stand_w > 0:
             s = _smooth(self.stand_w)
-            rest = np.zeros_like(q)
-            rest[:, 0] = 1.0
-            q = quaternion_slerp(q, rest, np.full(len(q), s))
-            local = np.array(local)
+            slerp_into(q, self._rest_q, s, q)
             local[1] = local[1] * (1 - s) + self._rest_height * s
             if self.stand_w >= 1.0:
                 st = np.ones(4, dtype=bool)
@@ -538,14 +580,9 @@ class HorseDataController:
         to the clip -- held on its plant there, it would be pulled back up to
         a fifth of a metre for a frame and the leg would snap.
         """
-        stance = self._stance_of(clip)
-        st = in_stance(stance, np.full((1, 4), phase))[0]
-        f = phase * clip.frames
-        if f - math.floor(f) > 1e-9:
-            k = math.floor(f)
-            ends = in_stance(stance, np.array([[k / clip.frames] * 4,
-                                               [(k + 1) / clip.frames] * 4]))
-            st = st & ends.all(axis=0)
+        pk = self._pack(clip)
+        st = np.empty(4, dtype=bool)
+        stance_row(pk.on_off, pk.count, clip.frames, phase, st)
         return st
 
     def _start_transition(self, gait: str, speed: float) -> None:
@@ -562,8 +599,8 @@ class HorseDataController:
         # on the ground: the foot phase, or the transition's foot at the ground; a lift of a
         # frame or two between two contacts (a leg switching clips) is no step
         held = m.foot_positions()[..., 1] <= GROUND_BAND
-        stance = _fill_gaps((m.extras["foot_phase"] != FLIGHT) | held,
-                            max(1, round(MIN_AIR * m.fps)))
+        stance = np.ascontiguousarray(_fill_gaps((m.extras["foot_phase"] != FLIGHT) | held,
+                                                 max(1, round(MIN_AIR * m.fps))))
         # played through one cycle of M2 after the blend (root and feet settle)
         self._tr = {"motion": m, "f0": f0, "f_end": len(m) - 1, "fps": m.fps,
                     "end": lt["end"] + (len(m) - 1 - f0 - lt["B"]) / clip2.frames,
@@ -574,9 +611,9 @@ class HorseDataController:
 
     def _transition_pose(self, f: float):
         tr = self._tr
-        root, rot = sample_motion(tr["motion"], np.array([f]))
+        root, rot = self._sample(tr["motion"], f)
         st = tr["stance"][min(int(round(f)), len(tr["stance"]) - 1)]
-        return root[0], rot[0], st, tr["label"]
+        return root, rot, st, tr["label"]
 
     def _start_leap(self) -> None:
         cur_local, _ = self._steady_local(self.clip, self.phase)
@@ -588,100 +625,35 @@ class HorseDataController:
     def _leap_pose(self):
         lm = self.leap_clip.motion
         f = self._tau * lm.fps
-        root, rot = sample_motion(lm, np.array([f]))
+        root, rot = self._sample(lm, f)
         st = self._leap_contacts[min(int(round(f)), len(lm) - 1)]
-        return root[0], rot[0], st, "leap"
+        return root, rot, st, "leap"
 
     def _emit(self, local, q, contacts, label, first=False) -> dict:
-        """Place the clip-local pose in the world: heading, slope, body lead, planted feet, IK."""
+        """Place the clip-local pose in the world: heading, slope, body lead, planted feet, IK
+        (compiled: :func:`~quadsim.horse.place_kernel.place_row`)."""
         dt = 0.0 if first else self._last_dt
-        local = np.array(local, dtype=float)
-        skel = self.character.skeleton
         yaw, yaw0 = self.yaw, self._yaw_prev
         self._yaw_prev = yaw
-        fwd0 = np.array([math.sin(yaw0), 0.0, math.cos(yaw0)])
-        fwd = np.array([math.sin(yaw), 0.0, math.cos(yaw)])
-        c = self._centre
         if first:
             self.position = np.zeros(3)
-        else:
-            d = local - self._local_prev
-            # the heading change turns the body about its middle, then the clip's travel
-            self.position = self.position + (fwd0 - fwd) * c
-            travel = _rotate(yaw, np.array([d[0], 0.0, d[2]])) * math.cos(self.pitch)
-            self.position = self.position + travel
+        local = np.asarray(local, dtype=float)
+        J = len(q)
+        L = np.empty((J, 3, 3))
+        rot = np.empty((J, 4))
+        P = np.empty((J, 3))
+        root = np.empty(3)
+        planted = np.empty(4, dtype=bool)
+        ground = np.empty(4)
+        place_row(local, local if first else self._local_prev, q, contacts, first, dt, yaw,
+                  yaw0, self._yaw_lead, self.position, self._scal, self.lead.state,
+                  self.planter.state, self.ground.table, self._ints, self._parents,
+                  self._offsets, L, rot, P, root, planted, ground, self._scratch)
         self._local_prev = local
-        # pitch towards the ground's slope between the hips and the shoulders
-        g = self.ground
-        hind, fore = self._girdles
-        p_xz = self.position[[0, 2]]
-        f_xz = fwd[[0, 2]]
-        gh, gf, ga = g.height(np.stack([p_xz + hind * f_xz, p_xz + fore * f_xz,
-                                        p_xz + (fore + LOOK_DISTANCE) * f_xz]))
-        target = math.atan2(gf - gh, fore - hind)
-        self.pitch = target if first else self.pitch + (target - self.pitch) * (
-            1.0 - math.exp(-dt / PITCH_TAU))
-        ahead = math.atan2(ga - gf, LOOK_DISTANCE)
-        self.lead.update(self._yaw_lead, ahead - self.pitch, dt)
-        if first:
-            self.lead.yaw[:] = self.lead.share * np.clip(self._yaw_lead, -MAX_YAW_LEAD,
-                                                         MAX_YAW_LEAD)
-        th = self.pitch
-        R_root = matrices_about_axis(1, yaw) @ matrices_about_axis(0, -th)
-        h = local[1]
-
-        def height(pos):
-            cx = pos[[0, 2]] + f_xz * c * math.cos(th)
-            return float(g.height(cx[None])[0]) + h / math.cos(th) - c * math.sin(th)
-
-        root = np.array([self.position[0], 0.0, self.position[2]])
-        root[1] = height(root)
-        L = matrices_from_quaternions(np.asarray(q, dtype=float))
-        L[0] = R_root @ L[0]
-        L = apply_body_lead(self.lead.chain, L, self.lead.yaw, self.lead.pitch, yaw)
-        W, P = forward_kinematics(skel, L, root)
-        feet = P[self._feet]
-        # the feet's height above the clip's ground, in the body's frame
-        clearance = (feet - root) @ R_root[:, 1] + h
-        contacts = np.asarray(contacts, dtype=bool)
-        held = clearance <= GROUND_BAND            # feet the clip itself holds on the ground
-        contacts = contacts | held
-        # the root follows the planted feet the clip itself holds down (eq. 11), within
-        # ROOT_BAND of its ground (a pitching body or a transition leaves a planted foot a few
-        # mm off it: left out, its leg would be stretched by the body's drift alone and snap
-        # back at lift-off); a foot the planter holds where the clip has lifted it higher
-        # does not drag the body
-        shift = self.planter.root_shift(contacts & (clearance <= ROOT_BAND), feet)
-        n = math.hypot(shift[0], shift[2])
-        if n > SHIFT_SPEED * dt:                    # the rest waits for the next frames
-            shift = shift * (SHIFT_SPEED * dt / n)
-        if shift.any():
-            moved = root + shift
-            moved[1] = height(moved)
-            shift = moved - root
-            root = moved
-            feet = feet + shift
-            self.position = np.array([root[0], 0.0, root[2]])
-        targets = self.planter.targets(contacts, feet, clearance, g, dt)
-        contacts = self.planter.contacts
-        # lower the body when a planted foot is beyond its leg's reach (twisted legs in a turn)
-        A, B = P[self._pair[0]] + shift, P[self._pair[1]] + shift
-        reach = (np.linalg.norm(A - B, axis=-1) + np.linalg.norm(feet - B, axis=-1)) * REACH
-        v = targets - A
-        vh2 = v[:, 0] ** 2 + v[:, 2] ** 2
-        need = -np.sqrt(np.maximum(reach ** 2 - vh2, 0.0)) - v[:, 1]
-        need = float(np.max(np.where(contacts & (np.linalg.norm(v, axis=-1) > reach), need, 0.0)))
-        self.sag = max(need, self.sag * math.exp(-dt / SAG_TAU))
-        down = np.array([0.0, self.sag, 0.0])
-        root = root - down
-        Lf = place_feet_pose(skel.parents, self._pair, self._feet, L, W, P + shift - down,
-                             targets)
-        rot = quaternions_from_matrices(Lf)
-        _, Pf = forward_kinematics(skel, Lf, root)
         self.time += dt
-        return {"rotations": rot, "local_rotations": Lf, "root": root, "positions": Pf,
-                "gait": label, "contacts": contacts, "heading": yaw, "pitch": th,
-                "ground": g.height(Pf[self._feet][:, [0, 2]]), "mode": self.mode}
+        return {"rotations": rot, "local_rotations": L, "root": root, "positions": P,
+                "gait": label, "contacts": planted, "heading": yaw, "pitch": self.pitch,
+                "ground": ground, "mode": self.mode}
 
 
 def simulate(character: Character, script: Script | Command, duration: float, fps: float, *,

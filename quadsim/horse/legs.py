@@ -5,7 +5,8 @@ and the joint below it) so that the foot joint reaches a target, leaving the
 joints above the pair and the bones below its middle joint as they were -- the
 clip's pastern and hoof angles survive the edit. The IK itself is
 :func:`two_bone`, batched over any leading axes (a clip's frames here, one
-pose's four legs in :func:`quadsim.horse.turning.place_feet_pose`).
+pose's four legs in the data-driven controller, compiled as
+:func:`quadsim.horse.place_kernel.two_bone_row`).
 :func:`pin_stance` uses it to hold every foot still, on the ground, through
 each of its contacts: at the contact's middle (looped clips) or where the
 foot landed (edited motion such as a gait transition, the swing easing onto

@@ -33,10 +33,15 @@ class Ground:
     ramps : list of tuple
         ``(origin (2,) [x, z] m, height m, direction (2,) unit [x, z], slope rad)``,
         oldest first.
+    table : ndarray, shape (R, 6)
+        The ramps packed for the compiled placement
+        (:func:`quadsim.horse.place_kernel.ground_height`): origin x, z,
+        height, direction x, z and ``tan(slope)``, one row per ramp.
     """
 
     def __init__(self) -> None:
         self.ramps: list[tuple[np.ndarray, float, np.ndarray, float]] = []
+        self.table = np.zeros((0, 6))
 
     @property
     def slope(self) -> float:
@@ -59,6 +64,7 @@ class Ground:
         h = float(self.height(o[None])[0])
         u = np.array([math.sin(heading), math.cos(heading)])
         self.ramps.append((o, h, u, float(slope)))
+        self.table = np.vstack([self.table, [o[0], o[1], h, u[0], u[1], math.tan(slope)]])
 
     def height(self, xz) -> np.ndarray:
         """Ground height (m) at horizontal points ``xz`` of shape (..., 2) -> (...)."""

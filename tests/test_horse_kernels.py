@@ -1,0 +1,158 @@
+"""The data-driven horse's compiled per-frame pieces agree with the array forms.
+
+:mod:`quadsim.horse.place_kernel` steps one frame at a time; the vectorised
+functions it mirrors (slerp, quaternion conversion, forward kinematics, the
+two-bone IK, the ramp ground, the clip's contact test) stay the library's
+general API. Each compiled piece is checked here against its array form on
+many random or real inputs; what the whole placement does to the motion is
+measured on joint positions in ``test_horse_turning.py`` and
+``test_horse_smoothness.py``.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from quadsim.horse.controller import HorseDataController
+from quadsim.horse.legs import two_bone
+from quadsim.horse.place_kernel import (
+    fk_row,
+    ground_height,
+    quaternion_from_matrix,
+    sample_row,
+    slerp_into,
+    stance_row,
+    two_bone_row,
+)
+from quadsim.horse.root import clip_stance_cycles, in_stance
+from quadsim.horse.slope import Ground
+from quadsim.kinematics.rotations import (
+    matrices_from_quaternions,
+    quaternion_slerp,
+    quaternions_from_matrices,
+)
+from quadsim.skeleton.fk import forward_kinematics
+
+
+def _unit_quaternions(rng, n):
+    q = rng.normal(size=(n, 4))
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def test_slerp_matches_the_array_form_including_near_and_opposite_pairs():
+    rng = np.random.default_rng(1)
+    q0 = _unit_quaternions(rng, 200)
+    q1 = _unit_quaternions(rng, 200)
+    q1[:20] = q0[:20] + 1e-9                # nearly equal: the linear branch
+    q1[20:40] = -q0[20:40]                  # the same rotation, opposite sign
+    q1[40:60] *= -1.0
+    for a in (0.0, 0.3, 0.999, 1.0):
+        out = np.empty_like(q0)
+        slerp_into(q0, q1, a, out)
+        np.testing.assert_allclose(out, quaternion_slerp(q0, q1, np.full(200, a)), atol=1e-12)
+
+
+def test_quaternion_from_matrix_matches_every_branch():
+    rng = np.random.default_rng(2)
+    q = _unit_quaternions(rng, 500)
+    # rotations near 180 degrees about each axis pick the m00, m11 and m22 branches
+    q[:3] = [[1e-3, 1, 0, 0], [1e-3, 0, 1, 0], [1e-3, 0, 0, 1]]
+    R = matrices_from_quaternions(q)
+    want = quaternions_from_matrices(R)
+    got = np.empty_like(want)
+    for i in range(len(R)):
+        quaternion_from_matrix(R[i], got[i])
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    assert (got[:, 0] >= 0).all()
+    # the branch test: which term is largest differs across the set
+    tr = np.stack([R.trace(axis1=1, axis2=2), R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], -1)
+    assert set(np.argmax(tr, -1)) == {0, 1, 2, 3}
+
+
+def test_forward_kinematics_of_one_pose(horse, db):
+    m = db.by_gait("canter")[0].motion
+    skel = horse.skeleton
+    L = m.local_matrices[7]
+    root = m.root_positions[7] + [0.4, 0.0, -1.2]
+    G = np.empty((skel.n_joints, 3, 3))
+    P = np.empty((skel.n_joints, 3))
+    fk_row(skel.parents.astype(np.int64), skel.offsets, np.ascontiguousarray(L), root, G, P)
+    W_want, P_want = forward_kinematics(skel, L, root)
+    np.testing.assert_allclose(G, W_want, atol=1e-12)
+    np.testing.assert_allclose(P, P_want, atol=1e-12)
+
+
+def test_two_bone_matches_the_batched_ik_for_reachable_and_unreachable_targets(horse, db):
+    m = db.by_gait("trot")[0].motion
+    skel = horse.skeleton
+    W, P = m.world_rotations(), m.world_positions()
+    rng = np.random.default_rng(3)
+    n_checked = 0
+    for leg in horse.legs:
+        top, mid = leg.chain[leg.ik_start], leg.chain[leg.ik_start + 1]
+        par = skel.parents[top]
+        # targets near the foot, and far beyond the leg's reach (approached, not reached)
+        targets = P[:, leg.foot] + rng.normal(scale=0.06, size=(len(m), 3))
+        targets[::5] += [0.0, -2.0, 1.0]
+        Lt, Lm = two_bone(P[:, top], P[:, mid], P[:, leg.foot], W[:, par], W[:, top],
+                          W[:, mid], targets)
+        got_t, got_m, work = np.empty((3, 3)), np.empty((3, 3)), np.empty((4, 3, 3))
+        for f in range(len(m)):
+            two_bone_row(P[f, top], P[f, mid], P[f, leg.foot], W[f, par], W[f, top],
+                         W[f, mid], targets[f], got_t, got_m, work)
+            np.testing.assert_allclose(got_t, Lt[f], atol=1e-10)
+            np.testing.assert_allclose(got_m, Lm[f], atol=1e-10)
+            n_checked += 1
+    assert n_checked == 4 * len(m)
+
+
+def test_ground_height_matches_the_ramp_field():
+    g = Ground()
+    g.add_ramp([0.0, 2.0], 0.0, math.radians(8.0))
+    g.add_ramp([1.0, 6.0], math.radians(30.0), math.radians(-5.0))
+    g.add_ramp([-2.0, 9.0], math.radians(-90.0), math.radians(12.0))
+    rng = np.random.default_rng(4)
+    xz = rng.uniform(-6.0, 14.0, size=(400, 2))
+    want = g.height(xz)
+    got = np.array([ground_height(g.table, x, z) for x, z in xz])
+    np.testing.assert_allclose(got, want, atol=1e-12)
+    assert np.ptp(want) > 0.5              # the points cover the ramps, not only flat ground
+    assert ground_height(Ground().table, 3.0, 4.0) == 0.0
+
+
+@pytest.mark.parametrize("gait", ["walk", "canter", "gallop"])
+def test_stance_row_holds_a_foot_only_when_down_on_both_frames_about_the_time(horse, db, gait):
+    ctl = HorseDataController(horse, db)
+    clip = ctl.expanded(gait, db.by_gait(gait)[0].speed)
+    pk = ctl._pack(clip)
+    stance = clip_stance_cycles(clip)
+    rng = np.random.default_rng(5)
+    times = np.concatenate([rng.uniform(0.0, 3.0, 300), np.arange(clip.frames) / clip.frames])
+    got = np.empty(4, dtype=bool)
+    n_edge = 0
+    for t in times:
+        stance_row(pk.on_off, pk.count, clip.frames, t, got)
+        f = t * clip.frames
+        want = in_stance(stance, np.full((1, 4), t))[0]
+        if f - math.floor(f) > 1e-9:
+            k = math.floor(f)
+            both = in_stance(stance, np.array([[k / clip.frames] * 4,
+                                               [(k + 1) / clip.frames] * 4])).all(axis=0)
+            n_edge += int((want & ~both).any())
+            want = want & both
+        np.testing.assert_array_equal(got, want)
+    assert n_edge > 0                       # some times fall in a contact's end frames
+
+
+def test_sample_row_matches_the_motion_sampler(horse, db):
+    from quadsim.horse.database import sample_motion
+
+    m = db.by_gait("amble")[0].motion
+    root, q = np.empty(3), np.empty((horse.skeleton.n_joints, 4))
+    for f in np.linspace(0.0, len(m) - 1.0, 57):
+        i0 = int(math.floor(f))
+        sample_row(m.root_positions, m.rotations, i0, min(i0 + 1, len(m) - 1), f - i0, root, q)
+        want_root, want_q = sample_motion(m, [f])
+        np.testing.assert_allclose(root, want_root[0], atol=1e-12)
+        np.testing.assert_allclose(q, want_q[0], atol=1e-12)
