@@ -16,7 +16,11 @@ Measures, on this machine and CPU only:
     takes; the result records the method (``method``) and, for small N, the
     Python loop over lone controllers for comparison;
 (a') the data-driven horse's step, when ``quadsim.horse`` provides
-    ``HorseDataController`` (``step["horse_data"]``);
+    ``HorseDataController`` (``step["horse_data"]``), and (b') its offline
+    60 s clip (``simulate["horse_data"]``): the shipped tour
+    ``configs/horse_data.toml`` played twice over (14 gait transitions, turns,
+    slopes, two leaps), the clip database loaded beforehand (its load is
+    ``database_load_s``);
 (d) ``export``: :func:`write_bvh` and :func:`write_glb` of the 60 s clip (s);
 (w) ``warm_up``: the one-off cost, in a fresh process, of the first posed
     step -- the compiled kernels loaded from numba's on-disk cache
@@ -50,6 +54,8 @@ from pathlib import Path
 import numpy as np
 
 RESULTS = Path(__file__).resolve().parent / "results"
+#: The source checkout the suite lives in (its configs/ hold the data-mode tour).
+ROOT = Path(__file__).resolve().parent.parent
 CHARACTERS = ("leopard", "leopard_cub", "dog_cub", "horse")
 #: what an interactive step is asked to do: trot on with a gentle left turn
 STEP_SPEED_FRACTION = 0.35
@@ -213,6 +219,49 @@ def bench_horse_data(frames: int, repeats: int) -> dict | None:
     return {"steps_per_s": _median(rates), "repeats": [round(r, 1) for r in rates],
             "steps_per_cpu_s": _median(cpu), "frames": frames,
             "command": "3 m/s, 0.3 rad/s turn"}
+
+
+def _data_tour_script():
+    """The shipped data-mode tour played twice over (60 s): a fresh command object for
+    each start, so the second pass leaps too (a leap is once per command object)."""
+    import dataclasses
+
+    from quadsim.config import load_config
+    from quadsim.locomotion.commands import Script
+
+    s = load_config(ROOT / "configs" / "horse_data.toml").commands
+    half = CLIP_SECONDS / 2
+    return Script(tuple(s.times) + tuple(t + half for t in s.times),
+                  tuple(s.commands) + tuple(dataclasses.replace(c) for c in s.commands))
+
+
+def bench_simulate_data(repeats: int) -> dict | None:
+    """Seconds to generate the data-driven horse's 60 s clip at 60 fps (fresh controller
+    each repeat: clip expansions and transitions computed anew)."""
+    try:
+        from quadsim.horse.controller import simulate as simulate_data
+        from quadsim.horse.database import load_default_database
+    except ImportError:
+        return None
+    ch = _load("horse")
+    load_default_database(ch)                               # kernels loaded
+    t0 = time.perf_counter()
+    db = load_default_database(ch)
+    load_s = time.perf_counter() - t0
+    script = _data_tour_script()
+    simulate_data(ch, script, 2.0, CLIP_FPS, database=db)   # kernels loaded
+    times, cpu, motion = [], [], None
+    for _ in range(repeats):
+        t0, c0 = time.perf_counter(), time.process_time()
+        motion = simulate_data(ch, script, CLIP_SECONDS, CLIP_FPS, database=db)
+        times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    gaits = sorted({g for g in motion.gaits if "->" in g})
+    return {"seconds": _median(times), "repeats": [round(t, 3) for t in times],
+            "cpu_seconds": _median(cpu), "frames": motion.n_frames,
+            "real_time_factor": CLIP_SECONDS / _median(times),
+            "database_load_s": load_s, "transitions": len(gaits),
+            "script": "configs/horse_data.toml twice over"}
 
 
 # ------------------------------------------------------------------ (c) many
@@ -405,6 +454,14 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
         cpu = f" [{r['cpu_seconds']:.2f}]" if "cpu_seconds" in r else ""
         log(f"    {c:12s} {r['seconds']:7.2f} s{cpu} for {r['frames']} frames "
             f"({r['real_time_factor']:.0f}x real time)")
+    if "horse" in characters:
+        r = bench_simulate_data(1 if quick else sim_repeats)
+        if r is not None:
+            result["simulate"]["horse_data"] = r
+            log(f"    {'horse (data)':12s} {r['seconds']:7.2f} s [{r['cpu_seconds']:.2f}] for "
+                f"{r['frames']} frames ({r['real_time_factor']:.0f}x real time; "
+                f"{r['transitions']} kinds of gait change; database loaded first in "
+                f"{r['database_load_s']:.2f} s)")
     ns = [n for n in (1, 10, 100, 1000, 10000) if n <= max_n]
     if quick:
         ns = [n for n in ns if n <= 100]

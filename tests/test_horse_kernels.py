@@ -1,9 +1,10 @@
 """The data-driven horse's compiled per-frame pieces agree with the array forms.
 
 :mod:`quadsim.horse.place_kernel` steps one frame at a time; the vectorised
-functions it mirrors (slerp, quaternion conversion, forward kinematics, the
-two-bone IK, the ramp ground, the clip's contact test) stay the library's
-general API. Each compiled piece is checked here against its array form on
+functions it mirrors (forward kinematics, the two-bone IK, the ramp ground,
+the clip's contact test, the motion sampler) stay the library's general API.
+(The quaternion pieces it calls are :mod:`quadsim.kinematics.rotations`' own,
+tested against transforms3d in ``test_rotations.py``.) Each compiled piece is checked here against its array form on
 many random or real inputs; what the whole placement does to the motion is
 measured on joint positions in ``test_horse_turning.py`` and
 ``test_horse_smoothness.py``.
@@ -19,55 +20,13 @@ from quadsim.horse.legs import two_bone
 from quadsim.horse.place_kernel import (
     fk_row,
     ground_height,
-    quaternion_from_matrix,
     sample_row,
-    slerp_into,
     stance_row,
     two_bone_row,
 )
 from quadsim.horse.root import clip_stance_cycles, in_stance
 from quadsim.horse.slope import Ground
-from quadsim.kinematics.rotations import (
-    matrices_from_quaternions,
-    quaternion_slerp,
-    quaternions_from_matrices,
-)
 from quadsim.skeleton.fk import forward_kinematics
-
-
-def _unit_quaternions(rng, n):
-    q = rng.normal(size=(n, 4))
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
-
-
-def test_slerp_matches_the_array_form_including_near_and_opposite_pairs():
-    rng = np.random.default_rng(1)
-    q0 = _unit_quaternions(rng, 200)
-    q1 = _unit_quaternions(rng, 200)
-    q1[:20] = q0[:20] + 1e-9                # nearly equal: the linear branch
-    q1[20:40] = -q0[20:40]                  # the same rotation, opposite sign
-    q1[40:60] *= -1.0
-    for a in (0.0, 0.3, 0.999, 1.0):
-        out = np.empty_like(q0)
-        slerp_into(q0, q1, a, out)
-        np.testing.assert_allclose(out, quaternion_slerp(q0, q1, np.full(200, a)), atol=1e-12)
-
-
-def test_quaternion_from_matrix_matches_every_branch():
-    rng = np.random.default_rng(2)
-    q = _unit_quaternions(rng, 500)
-    # rotations near 180 degrees about each axis pick the m00, m11 and m22 branches
-    q[:3] = [[1e-3, 1, 0, 0], [1e-3, 0, 1, 0], [1e-3, 0, 0, 1]]
-    R = matrices_from_quaternions(q)
-    want = quaternions_from_matrices(R)
-    got = np.empty_like(want)
-    for i in range(len(R)):
-        quaternion_from_matrix(R[i], got[i])
-    np.testing.assert_allclose(got, want, atol=1e-12)
-    assert (got[:, 0] >= 0).all()
-    # the branch test: which term is largest differs across the set
-    tr = np.stack([R.trace(axis1=1, axis2=2), R[:, 0, 0], R[:, 1, 1], R[:, 2, 2]], -1)
-    assert set(np.argmax(tr, -1)) == {0, 1, 2, 3}
 
 
 def test_forward_kinematics_of_one_pose(horse, db):

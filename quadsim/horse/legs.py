@@ -4,9 +4,10 @@
 and the joint below it) so that the foot joint reaches a target, leaving the
 joints above the pair and the bones below its middle joint as they were -- the
 clip's pastern and hoof angles survive the edit. The IK itself is
-:func:`two_bone`, batched over any leading axes (a clip's frames here, one
-pose's four legs in the data-driven controller, compiled as
-:func:`quadsim.horse.place_kernel.two_bone_row`).
+:func:`two_bone`, batched over any leading axes; the frame loops of
+:func:`place_feet` and of the data-driven controller run its compiled
+one-leg form :func:`quadsim.horse.place_kernel.two_bone_row` (tested
+against it).
 :func:`pin_stance` uses it to hold every foot still, on the ground, through
 each of its contacts: at the contact's middle (looped clips) or where the
 foot landed (edited motion such as a gait transition, the swing easing onto
@@ -18,9 +19,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics.rotations import matrices_from_axis_angles, quaternions_from_matrices
+from ..kinematics.rotations import matrices_from_axis_angles
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
+from .place_kernel import place_feet_rows
 
 LATERAL = np.array([1.0, 0.0, 0.0])
 
@@ -101,20 +103,23 @@ def place_feet(character: Character, motion: Motion, targets, legs=(0, 1, 2, 3))
     -------
     rotations : ndarray, shape (T, J, 4)
         Unreachable targets are approached as far as the pair allows.
+
+    Notes
+    -----
+    Each frame and leg is :func:`two_bone`; the loop over frames is compiled
+    (:func:`quadsim.horse.place_kernel.place_feet_rows`).
     """
-    targets = np.asarray(targets, dtype=float)
+    targets = np.ascontiguousarray(targets, dtype=float)
     skel = motion.skeleton
-    Wr = motion.world_rotations()
-    Wp = motion.world_positions()
-    local = np.array(motion.local_matrices)
-    for i in legs:
-        leg = character.legs[i]
-        top = int(leg.chain[leg.ik_start])
-        mid = int(leg.chain[leg.ik_start + 1])
-        local[:, top], local[:, mid] = two_bone(
-            Wp[:, top], Wp[:, mid], Wp[:, leg.foot], Wr[:, skel.parents[top]], Wr[:, top],
-            Wr[:, mid], targets[:, i])
-    return quaternions_from_matrices(local)
+    local = np.array(motion.local_matrices, dtype=float, order="C")
+    rows = np.array([[i, leg.chain[leg.ik_start], leg.chain[leg.ik_start + 1], leg.foot]
+                     for i, leg in ((i, character.legs[i]) for i in legs)],
+                    dtype=np.int64).reshape(-1, 4)
+    q = np.empty(local.shape[:2] + (4,))
+    place_feet_rows(np.asarray(skel.parents, dtype=np.int64), np.asarray(skel.offsets, float),
+                    local, np.ascontiguousarray(motion.root_positions, dtype=float), rows,
+                    targets, q)
+    return q
 
 
 def _runs(c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -17,12 +17,11 @@ the numerical work of a frame to three numba kernels:
   (:class:`~quadsim.horse.turning.FootPlanter`), lowering for reach, the
   two-bone IK of the four legs (:func:`two_bone_row`, one leg of
   :func:`~quadsim.horse.legs.two_bone`), quaternions
-  (:func:`quaternion_from_matrix`) and the final forward kinematics
+  (:func:`~quadsim.kinematics.rotations.quaternion_from_matrix`) and the final forward kinematics
   (:func:`fk_row`).
 
-The array forms these pieces mirror (slerp, quaternion conversion, forward
-kinematics, the two-bone IK, the ramp ground, the contact test) stay the
-general API -- clip editing and transitions run on whole motions -- and are
+The array forms these pieces mirror (forward kinematics, the two-bone IK,
+the ramp ground, the contact test, the motion sampler) stay the general API -- clip editing and transitions run on whole motions -- and are
 the reference the compiled pieces are tested against
 (``tests/test_horse_kernels.py``). The placement itself (lead, planting,
 reach) exists only here, described in :mod:`quadsim.horse.turning` and the
@@ -52,6 +51,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
 
 #: Columns of the ``scal`` array of :func:`place_row` (state first, then constants).
 SCALARS = ("pitch", "sag", "centre", "hind", "fore", "look_distance", "pitch_tau",
@@ -88,28 +89,10 @@ def _smoothstep(x):
 
 @njit(cache=True)
 def slerp_into(q0, q1, a, out):
-    """Shortest-path slerp of quaternion rows ``q0``, ``q1`` (J, 4) at ``a`` into ``out``."""
+    """Shortest-path slerp of quaternion rows ``q0``, ``q1`` (J, 4) at ``a`` into ``out``
+    (which may be ``q0``)."""
     for j in range(q0.shape[0]):
-        d = q0[j, 0] * q1[j, 0] + q0[j, 1] * q1[j, 1] + q0[j, 2] * q1[j, 2] + q0[j, 3] * q1[j, 3]
-        sign = -1.0 if d < 0.0 else 1.0
-        d = min(abs(d), 1.0)
-        theta = math.acos(d)
-        s = math.sin(theta)
-        if s < 1e-6:
-            w0 = 1.0 - a
-            w1 = a
-        else:
-            w0 = math.sin((1.0 - a) * theta) / s
-            w1 = math.sin(a * theta) / s
-        w1 *= sign
-        n = 0.0
-        for c in range(4):
-            v = w0 * q0[j, c] + w1 * q1[j, c]
-            out[j, c] = v
-            n += v * v
-        n = math.sqrt(n)
-        for c in range(4):
-            out[j, c] /= n
+        slerp_one(q0[j], q1[j], a, out[j])
 
 
 @njit(cache=True)
@@ -163,56 +146,6 @@ def stance_row(on_off, count, frames, phase, out):
             st = _in_contact(on_off, count, leg, k / frames) and \
                 _in_contact(on_off, count, leg, (k + 1) / frames)
         out[leg] = st
-
-
-@njit(cache=True)
-def _matrix_from_quaternion(q, M):
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
-    M[0, 0] = 1 - 2 * (y * y + z * z)
-    M[0, 1] = 2 * (x * y - z * w)
-    M[0, 2] = 2 * (x * z + y * w)
-    M[1, 0] = 2 * (x * y + z * w)
-    M[1, 1] = 1 - 2 * (x * x + z * z)
-    M[1, 2] = 2 * (y * z - x * w)
-    M[2, 0] = 2 * (x * z - y * w)
-    M[2, 1] = 2 * (y * z + x * w)
-    M[2, 2] = 1 - 2 * (x * x + y * y)
-
-
-@njit(cache=True)
-def quaternion_from_matrix(R, q):
-    """Unit quaternion ``q`` (4,) with ``w >= 0`` of the rotation matrix ``R`` (3, 3)."""
-    m00, m11, m22 = R[0, 0], R[1, 1], R[2, 2]
-    tr = m00 + m11 + m22
-    k = 0
-    best = tr
-    if m00 > best:
-        k, best = 1, m00
-    if m11 > best:
-        k, best = 2, m11
-    if m22 > best:
-        k = 3
-    if k == 0:
-        s = math.sqrt(max(1.0 + tr, 1e-300)) * 2
-        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, \
-            (R[1, 0] - R[0, 1]) / s
-    elif k == 1:
-        s = math.sqrt(max(1.0 + m00 - m11 - m22, 1e-300)) * 2
-        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, \
-            (R[0, 2] + R[2, 0]) / s
-    elif k == 2:
-        s = math.sqrt(max(1.0 - m00 + m11 - m22, 1e-300)) * 2
-        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, \
-            (R[1, 2] + R[2, 1]) / s
-    else:
-        s = math.sqrt(max(1.0 - m00 - m11 + m22, 1e-300)) * 2
-        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, \
-            (R[1, 2] + R[2, 1]) / s, 0.25 * s
-    n = math.sqrt(w * w + x * x + y * y + z * z)
-    if w < 0.0:
-        n = -n
-    q[0], q[1], q[2], q[3] = w / n, x / n, y / n, z / n
 
 
 @njit(cache=True)
@@ -308,6 +241,41 @@ def fk_row(parents, offsets, L, root, G, P):
                 + G[p, r, 2] * offsets[j, 2]
 
 
+@njit(cache=True)
+def place_feet_rows(parents, offsets, L, roots, legs, targets, q_out):
+    """Legs of T poses put on their targets (the compiled :func:`~quadsim.horse.legs.place_feet`).
+
+    Parameters
+    ----------
+    parents : ndarray of int, shape (J,)
+    offsets : ndarray, shape (J, 3)
+    L : ndarray, shape (T, J, 3, 3)
+        Local rotations; each moved leg's pair is overwritten.
+    roots : ndarray, shape (T, 3)
+        Root positions (m).
+    legs : ndarray of int, shape (n, 4)
+        Per moved leg: its column in ``targets``, its pair's top and middle
+        joints and its foot joint.
+    targets : ndarray, shape (T, 4, 3)
+        Wanted foot positions (m).
+    q_out : ndarray, shape (T, J, 4)
+        Output: every joint's local rotation as a quaternion.
+    """
+    J = parents.shape[0]
+    G = np.empty((J, 3, 3))
+    P = np.empty((J, 3))
+    work = np.empty((4, 3, 3))
+    for t in range(L.shape[0]):
+        fk_row(parents, offsets, L[t], roots[t], G, P)
+        for k in range(legs.shape[0]):
+            i, top, mid, foot = legs[k, 0], legs[k, 1], legs[k, 2], legs[k, 3]
+            # the legs hang from the trunk apart: one leg's new pair leaves the others' frames
+            two_bone_row(P[top], P[mid], P[foot], G[parents[top]], G[top], G[mid],
+                         targets[t, i], L[t, top], L[t, mid], work)
+        for j in range(J):
+            quaternion_from_matrix(L[t, j], q_out[t, j])
+
+
 # ------------------------------------------------------------------ the placement
 @njit(cache=True)
 def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lead,
@@ -401,7 +369,7 @@ def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lea
             body[k, 0] = body[k, 2] * yl
     # ---- the clip's rotations, the root turned to the heading and pitched
     for j in range(J):
-        _matrix_from_quaternion(q[j], out_L[j])
+        matrix_from_quaternion(q[j], out_L[j])
     sth, cth = math.sin(th), math.cos(th)
     R = M[0]                                   # R_y(yaw) @ R_x(-th)
     R[0, 0] = cy
@@ -602,5 +570,5 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["FEET_COLUMNS", "N_SCALARS", "SCALARS", "fk_row", "ground_height", "place_row",
-           "quaternion_from_matrix", "sample_row", "slerp_into", "stance_row", "two_bone_row"]
+__all__ = ["FEET_COLUMNS", "N_SCALARS", "SCALARS", "fk_row", "ground_height", "place_feet_rows",
+           "place_row", "sample_row", "slerp_into", "stance_row", "two_bone_row"]

@@ -20,6 +20,8 @@ used instead.)
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..skeleton.motion import Motion
@@ -27,10 +29,23 @@ from .database import Clip, cycle_stance
 
 STANCE, STRIKING, FLIGHT = 0, 1, 2
 
+#: Each clip's contacts in cycles, measured once per clip object (clips are immutable).
+_STANCE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
 
 def clip_stance_cycles(clip: Clip) -> list[np.ndarray]:
-    """Each foot's contacts in generic time (cycles), list of 4 arrays (n_i, 2)."""
-    return [s / clip.frames for s in cycle_stance(clip.motion, clip.speed)]
+    """Each foot's contacts in generic time (cycles), list of 4 arrays (n_i, 2).
+
+    Measured from the clip's foot positions (:func:`~quadsim.horse.database.cycle_stance`)
+    on the first call for a clip and remembered for it; the arrays are read-only.
+    """
+    hit = _STANCE.get(clip)
+    if hit is None:
+        hit = [s / clip.frames for s in cycle_stance(clip.motion, clip.speed)]
+        for s in hit:
+            s.flags.writeable = False
+        _STANCE[clip] = hit
+    return list(hit)
 
 
 def in_stance(stance_cycles: list[np.ndarray], t: np.ndarray) -> np.ndarray:

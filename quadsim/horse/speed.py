@@ -92,7 +92,8 @@ from ..analysis.metrics import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
-from .database import Clip, cycle_stance, label_touchdowns, looped, pin_cycle, sample_motion
+from .database import Clip, label_touchdowns, looped, pin_cycle, sample_motion
+from .root import clip_stance_cycles
 from .legs import place_feet
 
 #: Table 1 of the seed: ``Tc = a v^b``, v in :data:`SPEED_UNIT`, Tc in seconds.
@@ -208,7 +209,7 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
     root1, rot1 = sample_motion(ext, src)
     out = Motion(m.skeleton, m.fps, root1, rot1, foot_joints=m.foot_joints)
     # the clip's contacts, warped: hold those feet still on the ground
-    stance = [st * (n1 / n) for st in cycle_stance(m, clip.speed)]
+    stance = [st * n1 for st in clip_stance_cycles(clip)]
     out = pin_cycle(character, out, speed, stance)
     td = label_touchdowns(out, speed)
     return replace(clip, name=f"{clip.name}@{speed:g}", speed=float(speed), frames=n1,

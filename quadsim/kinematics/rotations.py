@@ -2,12 +2,18 @@
 
 Quaternions are stored as ``(w, x, y, z)`` (scalar first, the transforms3d
 order). Rotation matrices act on column vectors: ``v_world = R @ v_local``.
-Every function takes any leading batch shape.
+Every function takes any leading batch shape. The quaternion conversions
+and slerp run as compiled loops over the batch; their one-item forms
+(:func:`matrix_from_quaternion`, :func:`quaternion_from_matrix`,
+:func:`slerp_one`) are what compiled code elsewhere calls per joint.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 _EULER_AXES = {"X": 0, "Y": 1, "Z": 2}
 
@@ -93,37 +99,58 @@ def matrices_from_axis_angles(axis: np.ndarray, angles: np.ndarray) -> np.ndarra
     return eye + np.sin(a) * K + (1.0 - np.cos(a)) * (K @ K)
 
 
+def _rows(x: np.ndarray, item: tuple) -> np.ndarray:
+    """``x`` as a writeable C-contiguous float array of rows of shape ``item`` (a copy
+    only when needed: the compiled loops then see one array type)."""
+    return np.require(np.reshape(x, (-1,) + item), dtype=float, requirements=["C", "W"])
+
+
 def matrices_from_quaternions(q: np.ndarray) -> np.ndarray:
     """Rotation matrices from unit quaternions ``(w, x, y, z)``.
 
     Parameters
     ----------
     q : array-like, shape (..., 4)
+        Normalised here.
 
     Returns
     -------
     R : ndarray, shape (..., 3, 3)
     """
     q = np.asarray(q, dtype=float)
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    R = np.empty(q.shape[:-1] + (3, 3))
-    R[..., 0, 0] = 1 - 2 * (y * y + z * z)
-    R[..., 0, 1] = 2 * (x * y - z * w)
-    R[..., 0, 2] = 2 * (x * z + y * w)
-    R[..., 1, 0] = 2 * (x * y + z * w)
-    R[..., 1, 1] = 1 - 2 * (x * x + z * z)
-    R[..., 1, 2] = 2 * (y * z - x * w)
-    R[..., 2, 0] = 2 * (x * z - y * w)
-    R[..., 2, 1] = 2 * (y * z + x * w)
-    R[..., 2, 2] = 1 - 2 * (x * x + y * y)
-    return R
+    flat = _rows(q, (4,))
+    R = np.empty((len(flat), 3, 3))
+    _matrices_rows(flat, R)
+    return R.reshape(q.shape[:-1] + (3, 3))
+
+
+@njit(cache=True)
+def matrix_from_quaternion(q, M):
+    """``M`` (3, 3) = the rotation of the quaternion ``q`` (4,) ``(w, x, y, z)``, normalised."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    w, x, y, z = q[0] / n, q[1] / n, q[2] / n, q[3] / n
+    M[0, 0] = 1 - 2 * (y * y + z * z)
+    M[0, 1] = 2 * (x * y - z * w)
+    M[0, 2] = 2 * (x * z + y * w)
+    M[1, 0] = 2 * (x * y + z * w)
+    M[1, 1] = 1 - 2 * (x * x + z * z)
+    M[1, 2] = 2 * (y * z - x * w)
+    M[2, 0] = 2 * (x * z - y * w)
+    M[2, 1] = 2 * (y * z + x * w)
+    M[2, 2] = 1 - 2 * (x * x + y * y)
+
+
+@njit(cache=True)
+def _matrices_rows(q, R):
+    for i in range(q.shape[0]):
+        matrix_from_quaternion(q[i], R[i])
 
 
 def quaternions_from_matrices(R: np.ndarray) -> np.ndarray:
     """Unit quaternions ``(w, x, y, z)`` with ``w >= 0`` from rotation matrices.
 
-    Uses the numerically stable branch on the largest diagonal term.
+    Uses the numerically stable branch on the largest of the trace and the
+    diagonal terms (:func:`quaternion_from_matrix`).
 
     Parameters
     ----------
@@ -134,27 +161,51 @@ def quaternions_from_matrices(R: np.ndarray) -> np.ndarray:
     q : ndarray, shape (..., 4)
     """
     R = np.asarray(R, dtype=float)
-    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    flat = _rows(R, (3, 3))
+    q = np.empty((len(flat), 4))
+    _quaternions_rows(flat, q)
+    return q.reshape(R.shape[:-2] + (4,))
+
+
+@njit(cache=True)
+def quaternion_from_matrix(R, q):
+    """``q`` (4,) = the unit quaternion, ``w >= 0``, of the rotation matrix ``R`` (3, 3)."""
+    m00, m11, m22 = R[0, 0], R[1, 1], R[2, 2]
     tr = m00 + m11 + m22
-    cand = np.stack([tr, m00, m11, m22], axis=-1)
-    k = np.argmax(cand, axis=-1)
-    q = np.empty(R.shape[:-2] + (4,))
-    # each branch computed everywhere, then selected (vectorised)
-    s0 = np.sqrt(np.maximum(1.0 + tr, 1e-300)) * 2
-    q0 = np.stack([0.25 * s0, (R[..., 2, 1] - R[..., 1, 2]) / s0,
-                   (R[..., 0, 2] - R[..., 2, 0]) / s0, (R[..., 1, 0] - R[..., 0, 1]) / s0], -1)
-    s1 = np.sqrt(np.maximum(1.0 + m00 - m11 - m22, 1e-300)) * 2
-    q1 = np.stack([(R[..., 2, 1] - R[..., 1, 2]) / s1, 0.25 * s1,
-                   (R[..., 0, 1] + R[..., 1, 0]) / s1, (R[..., 0, 2] + R[..., 2, 0]) / s1], -1)
-    s2 = np.sqrt(np.maximum(1.0 - m00 + m11 - m22, 1e-300)) * 2
-    q2 = np.stack([(R[..., 0, 2] - R[..., 2, 0]) / s2, (R[..., 0, 1] + R[..., 1, 0]) / s2,
-                   0.25 * s2, (R[..., 1, 2] + R[..., 2, 1]) / s2], -1)
-    s3 = np.sqrt(np.maximum(1.0 - m00 - m11 + m22, 1e-300)) * 2
-    q3 = np.stack([(R[..., 1, 0] - R[..., 0, 1]) / s3, (R[..., 0, 2] + R[..., 2, 0]) / s3,
-                   (R[..., 1, 2] + R[..., 2, 1]) / s3, 0.25 * s3], -1)
-    q = np.choose(k[..., None], [q0, q1, q2, q3])
-    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    return np.where(q[..., :1] < 0, -q, q)
+    k = 0
+    best = tr
+    if m00 > best:
+        k, best = 1, m00
+    if m11 > best:
+        k, best = 2, m11
+    if m22 > best:
+        k = 3
+    if k == 0:
+        s = math.sqrt(max(1.0 + tr, 1e-300)) * 2
+        w, x, y, z = 0.25 * s, (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, \
+            (R[1, 0] - R[0, 1]) / s
+    elif k == 1:
+        s = math.sqrt(max(1.0 + m00 - m11 - m22, 1e-300)) * 2
+        w, x, y, z = (R[2, 1] - R[1, 2]) / s, 0.25 * s, (R[0, 1] + R[1, 0]) / s, \
+            (R[0, 2] + R[2, 0]) / s
+    elif k == 2:
+        s = math.sqrt(max(1.0 - m00 + m11 - m22, 1e-300)) * 2
+        w, x, y, z = (R[0, 2] - R[2, 0]) / s, (R[0, 1] + R[1, 0]) / s, 0.25 * s, \
+            (R[1, 2] + R[2, 1]) / s
+    else:
+        s = math.sqrt(max(1.0 - m00 - m11 + m22, 1e-300)) * 2
+        w, x, y, z = (R[1, 0] - R[0, 1]) / s, (R[0, 2] + R[2, 0]) / s, \
+            (R[1, 2] + R[2, 1]) / s, 0.25 * s
+    n = math.sqrt(w * w + x * x + y * y + z * z)
+    if w < 0.0:
+        n = -n
+    q[0], q[1], q[2], q[3] = w / n, x / n, y / n, z / n
+
+
+@njit(cache=True)
+def _quaternions_rows(R, q):
+    for i in range(R.shape[0]):
+        quaternion_from_matrix(R[i], q[i])
 
 
 def quaternion_multiply(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -184,21 +235,51 @@ def quaternion_slerp(q0: np.ndarray, q1: np.ndarray, t: np.ndarray) -> np.ndarra
     Returns
     -------
     q : ndarray, shape (..., 4)
+        Normalised; where the two are within 1e-6 rad of each other, the
+        normalised linear blend (:func:`slerp_one`).
     """
     q0 = np.asarray(q0, dtype=float)
     q1 = np.asarray(q1, dtype=float)
-    t = np.asarray(t, dtype=float)[..., None]
-    d = np.sum(q0 * q1, axis=-1, keepdims=True)
-    q1 = np.where(d < 0, -q1, q1)
-    d = np.abs(d)
-    theta = np.arccos(np.clip(d, -1.0, 1.0))
-    sin_t = np.sin(theta)
-    near = sin_t < 1e-6
-    safe = np.where(near, 1.0, sin_t)
-    w0 = np.where(near, 1.0 - t, np.sin((1.0 - t) * theta) / safe)
-    w1 = np.where(near, t, np.sin(t * theta) / safe)
-    q = w0 * q0 + w1 * q1
-    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+    t = np.asarray(t, dtype=float)
+    shape = np.broadcast_shapes(q0.shape, q1.shape, t.shape + (4,))
+    a = _rows(np.broadcast_to(q0, shape), (4,))
+    b = _rows(np.broadcast_to(q1, shape), (4,))
+    out = np.empty_like(a)
+    _slerp_rows(a, b, _rows(np.broadcast_to(t, shape[:-1]), ()), out)
+    return out.reshape(shape)
+
+
+@njit(cache=True)
+def slerp_one(q0, q1, a, out):
+    """``out`` (4,) = shortest-path slerp of the quaternions ``q0`` and ``q1`` at ``a``.
+
+    ``out`` may be ``q0`` (each component is read before it is written).
+    """
+    d = q0[0] * q1[0] + q0[1] * q1[1] + q0[2] * q1[2] + q0[3] * q1[3]
+    sign = -1.0 if d < 0.0 else 1.0
+    theta = math.acos(min(abs(d), 1.0))
+    s = math.sin(theta)
+    if s < 1e-6:
+        w0 = 1.0 - a
+        w1 = a
+    else:
+        w0 = math.sin((1.0 - a) * theta) / s
+        w1 = math.sin(a * theta) / s
+    w1 *= sign
+    n = 0.0
+    for c in range(4):
+        v = w0 * q0[c] + w1 * q1[c]
+        out[c] = v
+        n += v * v
+    n = math.sqrt(n)
+    for c in range(4):
+        out[c] /= n
+
+
+@njit(cache=True)
+def _slerp_rows(q0, q1, t, out):
+    for i in range(q0.shape[0]):
+        slerp_one(q0[i], q1[i], t[i], out[i])
 
 
 def euler_from_matrices(R: np.ndarray, order: str) -> np.ndarray:

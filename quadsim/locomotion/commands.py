@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import bisect
 import math
 from dataclasses import dataclass
 
@@ -73,7 +74,7 @@ class Script:
 
     def command_at(self, t: float) -> Command:
         """The command in force at time ``t`` (s)."""
-        k = int(np.searchsorted(np.asarray(self.times), t, side="right")) - 1
+        k = bisect.bisect_right(self.times, t) - 1
         return self.commands[max(k, 0)]
 
     def leap_times(self) -> list[float]:

@@ -1,10 +1,11 @@
-"""Forward kinematics, vectorised over any batch of frames (and characters)."""
+"""Forward kinematics over any batch of frames (and characters), as one compiled loop."""
 
 from __future__ import annotations
 
 import weakref
 
 import numpy as np
+from numba import njit
 
 from quadsim.skeleton.skeleton import Skeleton
 
@@ -31,6 +32,11 @@ def forward_kinematics(
     -------
     world_rotations : ndarray, shape (..., J, 3, 3) (or (..., M, 3, 3))
     world_positions : ndarray, shape (..., J, 3) (or (..., M, 3))
+
+    Notes
+    -----
+    The frames (or characters) are walked by a compiled loop
+    (:func:`_fk_frames`), each joint after its parent.
     """
     L = np.asarray(local_rotations, dtype=float)
     J = skeleton.n_joints
@@ -39,58 +45,63 @@ def forward_kinematics(
     root = np.asarray(root_positions, dtype=float)
     batch = np.broadcast_shapes(L.shape[:-3], root.shape[:-1])
     B = int(np.prod(batch, dtype=np.int64))
-    sel, levels = skeleton_levels(skeleton, joints)
+    sel, up, off = skeleton_plan(skeleton, joints)
     M = len(sel)
-    # structure of arrays: element (r, c) of every joint's matrix, joints then
-    # batch trailing, so each level's products run over long contiguous rows
-    Lb = np.broadcast_to(L, batch + (J, 3, 3)).reshape(B, J, 3, 3)
-    if M < J:
-        Lb = Lb[:, sel]
-    Ls = np.ascontiguousarray(Lb.transpose(2, 3, 1, 0))  # (3, 3, M, B)
-    G = np.empty((3, 3, M, B))
-    P = np.empty((3, M, B))
-    G[:, :, 0] = Ls[:, :, 0]
-    P[:, 0] = np.broadcast_to(root, batch + (3,)).reshape(B, 3).T
-    for idx, par, off in levels:
-        Gp = G[:, :, par]
-        G[:, :, idx] = np.einsum("ikjb,klj b->iljb".replace(" ", ""), Gp, Ls[:, :, idx])
-        P[:, idx] = P[:, par] + np.einsum("ikjb,kjb->ijb", Gp, off)
-    return (G.transpose(3, 2, 0, 1).reshape(batch + (M, 3, 3)),
-            P.transpose(2, 1, 0).reshape(batch + (M, 3)))
+    Lb = np.ascontiguousarray(np.broadcast_to(L, batch + (J, 3, 3)).reshape(B, J, 3, 3))
+    rb = np.ascontiguousarray(np.broadcast_to(root, batch + (3,)).reshape(B, 3))
+    G = np.empty((B, M, 3, 3))
+    P = np.empty((B, M, 3))
+    _fk_frames(sel, up, off, Lb, rb, G, P)
+    return G.reshape(batch + (M, 3, 3)), P.reshape(batch + (M, 3))
+
+
+@njit(cache=True)
+def _fk_frames(sel, up, off, L, root, G, P):
+    """Forward kinematics of B poses: joint ``sel[m]`` (m >= 1) from its parent at
+    position ``up[m]`` of ``sel`` and its offset ``off[m]``; ``sel[0]`` is the root."""
+    for b in range(L.shape[0]):
+        for r in range(3):
+            for c in range(3):
+                G[b, 0, r, c] = L[b, sel[0], r, c]
+            P[b, 0, r] = root[b, r]
+        for m in range(1, sel.shape[0]):
+            p = up[m]
+            Lj = L[b, sel[m]]
+            for r in range(3):
+                g0, g1, g2 = G[b, p, r, 0], G[b, p, r, 1], G[b, p, r, 2]
+                for c in range(3):
+                    G[b, m, r, c] = g0 * Lj[0, c] + g1 * Lj[1, c] + g2 * Lj[2, c]
+                P[b, m, r] = P[b, p, r] + g0 * off[m, 0] + g1 * off[m, 1] + g2 * off[m, 2]
 
 
 #: per skeleton: its forward kinematics plans, by joint subset
-_LEVELS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def skeleton_levels(skeleton: Skeleton, joints=None) -> tuple:
-    """The joints forward kinematics visits and its plan, cached per skeleton.
+def skeleton_plan(skeleton: Skeleton, joints=None) -> tuple:
+    """The joints forward kinematics visits and how, cached per skeleton.
 
-    Returns the joint indices ``sel`` (M,) and, per depth level below the
-    root, the level's positions in ``sel``, its parents' positions and the
-    offsets as a (3, n, 1) array.
+    Returns the joint indices ``sel`` (M,) in increasing order (a parent
+    before its children), each one's parent as a position in ``sel`` (``up``,
+    (M,), -1 for the root) and its rest offset (``off``, (M, 3), m).
     """
     key = None if joints is None else tuple(int(j) for j in joints)
-    plans = _LEVELS.setdefault(skeleton, {})
+    plans = _PLANS.setdefault(skeleton, {})
     hit = plans.get(key)
     if hit is not None:
         return hit
     J = skeleton.n_joints
     if joints is None:
-        sel = np.arange(J)
+        sel = np.arange(J, dtype=np.int64)
     else:
         sel = np.unique(np.asarray(joints, dtype=np.int64))
         if sel[0] != 0 or not np.all(np.isin(skeleton.parents[sel[1:]], sel)):
             raise ValueError("`joints` must hold the root and the parent of each joint")
-    where = np.full(J, -1)
+    where = np.full(J, -1, dtype=np.int64)
     where[sel] = np.arange(len(sel))
-    levels = []
-    for idx in skeleton.depth_levels[1:]:
-        idx = idx[where[idx] >= 0]
-        if len(idx):
-            levels.append((where[idx], where[skeleton.parents[idx]],
-                           skeleton.offsets[idx].T[:, :, None].copy()))
-    out = plans[key] = (sel, tuple(levels))
+    up = np.where(sel > 0, where[np.maximum(skeleton.parents[sel], 0)], -1).astype(np.int64)
+    off = np.ascontiguousarray(skeleton.offsets[sel], dtype=float)
+    out = plans[key] = (sel, up, off)
     return out
 
 
