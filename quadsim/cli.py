@@ -477,8 +477,42 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+_ANNOUNCING = False
+
+
+def _announce_compiling() -> None:
+    """Tell a person at a terminal, once, when the numba kernels are being compiled.
+
+    numba compiles a kernel on its first use and caches the machine code
+    (``__pycache__``), so this shows only on the first run after installing
+    or updating; output that is not a terminal (a pipe, a log, the tests)
+    is left alone.
+    """
+    global _ANNOUNCING
+    if _ANNOUNCING or not sys.stderr.isatty():
+        return
+    _ANNOUNCING = True
+    from numba.core import event
+
+    class _Note(event.Listener):
+        said = False
+
+        def on_start(self, ev) -> None:
+            if not self.said:
+                self.said = True
+                print(f"{PROG}: compiling the numeric kernels (first run after installing or "
+                      "updating; up to a minute, cached afterwards) ...", file=sys.stderr,
+                      flush=True)
+
+        def on_end(self, ev) -> None:
+            pass
+
+    event.register("numba:compile", _Note())
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the ``quadsim`` command; returns the exit status."""
+    _announce_compiling()
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
