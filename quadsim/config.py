@@ -205,13 +205,15 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
     if mode not in MODES:
         raise InputError(f"{src}: `mode` = {mode!r} is not a known mode; "
                          f"allowed: {', '.join(map(repr, MODES))}")
+    clip_gaits = ()
     if mode == "data":
-        from quadsim.horse.database import clip_folder
+        from quadsim.horse.database import clip_folder, playable_gaits
 
         if clip_folder(character) is None:
             raise InputError(f"{src}: `mode` = 'data' needs a character with a clip "
                              f"database (characters/<id>/clips/manifest.toml); "
                              f"{character.id!r} has none; allowed for it: 'procedural'")
+        clip_gaits = playable_gaits(character)
     units = data.get("units", "m")
     if units not in UNITS:
         raise InputError(f"{src}: `units` = {units!r}; allowed: {', '.join(map(repr, UNITS))}")
@@ -262,6 +264,8 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
             turn_rate_deg_s=turn, heading_deg=heading, leap=leap,
             label=lambda name, key=key: f"{src}: `{key}.{name}`",
             speed_key=given[0] if given else "speed")
+        _check_clip_gait(cmd, clip_gaits, character, table.get("gait"),
+                         f"{src}: `{key}.gait`")
         if "slope_deg" in table:
             sl = _number(table["slope_deg"], f"{src}: `{key}.slope_deg`")
             if abs(sl) > MAX_SLOPE_DEG:
@@ -394,14 +398,30 @@ def with_overrides(config: RunConfig, *, duration: float | None = None,
         changes["units"] = units
     if speed is not None or gait is not None or turn_rate_deg_s is not None:
         flags = {"speed": "--speed", "gait": "--gait", "turn_rate_deg_s": "--turn-rate"}
-        command = constant_command(config.load_character(), speed=speed, gait=gait,
+        character = config.load_character()
+        command = constant_command(character, speed=speed, gait=gait,
                                    turn_rate_deg_s=turn_rate_deg_s,
                                    label=lambda key: f"`{flags[key]}`")
+        if config.mode == "data":
+            from quadsim.horse.database import playable_gaits
+
+            _check_clip_gait(command, playable_gaits(character), character, gait, "`--gait`")
         changes["commands"] = Script.constant(command)
     return replace(config, **changes) if changes else config
 
 
 # ------------------------------------------------------------------ helpers
+def _check_clip_gait(command: Command, clip_gaits: tuple[str, ...], character, given,
+                     label: str) -> None:
+    """In data mode, a command's gait must be one the character's clips play."""
+    g = command.gait
+    if not clip_gaits or g is None:
+        return
+    if (g if g != "transverse_gallop" else "gallop") not in clip_gaits:
+        raise InputError(f"{label} = {given!r} has no clips in {character.id}'s database "
+                         f"(data mode); allowed: {', '.join(clip_gaits)}")
+
+
 def _check_keys(table: dict, allowed: tuple[str, ...], src: str, prefix: str) -> None:
     unknown = [k for k in table if k not in allowed]
     if unknown:

@@ -246,3 +246,27 @@ BAD_FLAGS = {
 def test_bad_override_names_the_flag(config, kw, pattern):
     with pytest.raises(InputError, match=pattern):
         with_overrides(config, **kw)
+
+
+# ------------------------------------------------------------------ data mode gaits
+DATA_HEAD = 'character = "horse"\nmode = "data"\nduration = 4.0\nfps = 60\n[[command]]\nat = 0.0\n'
+
+
+def test_data_mode_gait_without_clips_names_file_key_and_the_clip_gaits(tmp_path):
+    """The procedural horse paces; its clip database has no pace: said when reading."""
+    path = write(tmp_path, DATA_HEAD + 'speed = 3.0\ngait = "pace"\n')
+    with pytest.raises(InputError, match=r"`command\[0\]\.gait` = 'pace' has no clips.*"
+                       r"allowed: walk, amble, trot, rack, canter, gallop$") as err:
+        load_config(path)
+    assert str(err.value).startswith(f"{path}: ")
+    # a gait the clips have (gallop, also by its procedural name) reads fine
+    for name in ("gallop", "transverse_gallop", "rack"):
+        cfg = load_config(write(tmp_path, DATA_HEAD + f'speed = 6.0\ngait = "{name}"\n'))
+        assert cfg.commands.commands[0].gait is not None
+
+
+def test_data_mode_gait_flag_without_clips_names_the_flag(tmp_path):
+    cfg = load_config(write(tmp_path, DATA_HEAD + "speed = 3.0\n"))
+    with pytest.raises(InputError, match=r"`--gait` = 'pace' has no clips in horse's database"):
+        with_overrides(cfg, gait="pace")
+    assert with_overrides(cfg, gait="canter").commands.commands[0].gait == "canter"

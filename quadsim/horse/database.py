@@ -247,6 +247,21 @@ def clip_folder(character: Character) -> Path | None:
     return d if (d / "manifest.toml").is_file() else None
 
 
+def playable_gaits(character: Character) -> tuple[str, ...]:
+    """The gaits the character's shipped clips can be asked for (leap clips excepted),
+    read from the manifest alone (no clip is loaded); empty without a clip folder."""
+    d = clip_folder(character)
+    if d is None:
+        return ()
+    try:
+        table = tomllib.loads((d / "manifest.toml").read_text(encoding="utf-8")).get("clips")
+    except tomllib.TOMLDecodeError:
+        return ()                       # loading the database names the fault
+    gaits = {_ALIASES.get(e.get("gait"), e.get("gait")) for e in (table or {}).values()
+             if isinstance(e, dict)}
+    return tuple(g for g in CLIP_GAITS if g in gaits and g != "leap")
+
+
 def load_default_database(character: Character) -> ClipDatabase:
     """The character's shipped clip database (``characters/<id>/clips``)."""
     d = clip_folder(character)
@@ -497,6 +512,7 @@ __all__ = [
     "contacts_from_stance",
     "cut_cycles",
     "cycle_stance",
+    "playable_gaits",
     "label_touchdowns",
     "load_database",
     "load_default_database",
