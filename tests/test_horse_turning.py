@@ -282,3 +282,26 @@ def test_stand_still_set_off_and_stop_again(horse, db):
     assert step.max() < 1.2 * 3.5 / FPS, step.max()
     # and sets off again, at a trot
     assert labels[-1] == "trot" and P[-1, 0, 2] - P[int(7.5 * FPS), 0, 2] > 2.0
+
+
+def test_a_report_of_a_climb_measures_the_feet_from_the_slope(horse, db):
+    """On a ramp the feet stand metres above y = 0: measured from the ground under them
+    (``extras["ground"]``), a climbing trot shows the same footfalls as on the level."""
+    from quadsim.analysis.metrics import feet_over_ground, foot_contacts, motion_report
+    from quadsim.horse.controller import simulate
+
+    climb = simulate(horse, Command(speed=4.0, slope=math.radians(8.0)), 8.0, 60, database=db)
+    level = simulate(horse, Command(speed=4.0), 8.0, 60, database=db)
+    assert climb.extras["ground"][180:].min() > 1.0          # well up the ramp
+    # measured from y = 0 no foot would ever touch down
+    assert not foot_contacts(climb.foot_positions()[180:], 60).any()
+    up, flat = motion_report(climb, start=3.0), motion_report(level, start=3.0)
+    for leg in up["legs"]:
+        assert up["legs"][leg]["strides"] >= 5
+        assert up["legs"][leg]["duty_factor"] == pytest.approx(
+            flat["legs"][leg]["duty_factor"], abs=0.01)
+        assert up["legs"][leg]["max_slide_mm"] < 1.0
+        assert up["legs"][leg]["max_penetration_mm"] < 0.1
+    lowered = feet_over_ground(climb)
+    np.testing.assert_allclose(lowered[..., 1] + climb.extras["ground"],
+                               climb.foot_positions()[..., 1])

@@ -51,7 +51,8 @@ from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 __all__ = [
     "angular_acceleration", "angular_velocity", "angular_velocity_vectors",
     "body_span", "contact_intervals", "default_contact_thresholds", "duty_factors",
-    "foot_contacts", "foot_slide", "format_report", "ground_penetration", "motion_report",
+    "feet_over_ground", "foot_contacts", "foot_slide", "format_report", "ground_penetration",
+    "motion_report",
     "penetration_depth", "phases", "report_from_positions", "root_speed",
     "stance_intervals", "stride_frequency", "stride_length", "stride_table",
     "strides_to_pattern",
@@ -837,6 +838,28 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
     return report
 
 
+def feet_over_ground(motion) -> np.ndarray:
+    """Foot positions (T, 4, 3) (m) with their height taken above the ground under them.
+
+    A motion made on uneven ground carries the ground's height under each foot
+    on each frame as ``extras["ground"]`` (T, 4) (the data-driven horse on
+    slopes); its feet are then measured from that ground, so contacts on a
+    ramp count as on the ground. Without it the ground is ``y = 0`` and the
+    positions are returned as they are.
+    """
+    feet = motion.foot_positions()
+    ground = (getattr(motion, "extras", None) or {}).get("ground")
+    if ground is None:
+        return feet
+    ground = np.asarray(ground, dtype=float)
+    if ground.shape != feet.shape[:2]:
+        raise ValueError(f"extras['ground'] has shape {ground.shape}, expected "
+                         f"{feet.shape[:2]} (the ground height under each foot, per frame)")
+    out = np.array(feet)
+    out[..., Y] -= ground
+    return out
+
+
 def motion_report(motion, *, start: float = 0.0, height: float | None = None,
                   speed: float | None = None, min_frames: int = MIN_FRAMES) -> dict:
     """Footfalls, sliding, penetration, speed and smoothness of a motion.
@@ -873,7 +896,7 @@ def motion_report(motion, *, start: float = 0.0, height: float | None = None,
         raise ValueError("motion_report needs the motion's foot joints: build the Motion "
                          "with foot_joints=(LF, RF, LH, RH joint names)")
     return report_from_positions(
-        motion.foot_positions(), motion.root_positions, motion.fps,
+        feet_over_ground(motion), motion.root_positions, motion.fps,
         rotations=motion.rotations, joint_names=motion.skeleton.names, start=start,
         height=height, speed=speed, min_frames=min_frames)
 

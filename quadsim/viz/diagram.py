@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadsim.analysis.metrics import foot_contacts, stance_intervals
+from quadsim.analysis.metrics import feet_over_ground, foot_contacts, stance_intervals
 from quadsim.frames import LEGS
 
 __all__ = ["IRREGULAR", "FootfallData", "Segment", "classify_strides", "footfall_data",
@@ -329,7 +329,7 @@ def footfall_data(motion, *, start: float = 0.0, stop: float | None = None,
     if i1 - i0 < 3:
         raise ValueError(f"the window [{start}, {stop}] s holds {max(i1 - i0, 0)} frames of "
                          f"{T_all}; a diagram needs at least 3")
-    feet = motion.foot_positions()[i0:i1]
+    feet = feet_over_ground(motion)[i0:i1]
     T = len(feet)
     offset = i0 / fps
     times = offset + np.arange(T) / fps
