@@ -44,15 +44,23 @@ from quadsim.locomotion.controller import (
     QuadsimClampWarning,
     initial_oscillators,
 )
-from quadsim.locomotion.cpg import TWO_PI
 from quadsim.locomotion.gaits import GAIT_NAMES, resolve_gait_name
 from quadsim.locomotion import plan_kernels as _pk
 from quadsim.locomotion.plan_kernels import run_plan, step_scalars
-from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan
+from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns
 from quadsim.skeleton.character import Character
 
 _STAND = len(GAIT_NAMES)
 _G = len(GAIT_IDS)
+
+
+def _rows(values, n: int, dtype) -> np.ndarray:
+    """``values`` (a scalar or N of them) as a new writable (N,) array."""
+    out = np.empty(n, dtype=dtype)
+    out[...] = np.asarray(values, dtype=dtype)
+    return out
+
+
 class _Rows:
     """A bag of arrays (the compiled plan's constants), as attributes."""
 
@@ -175,6 +183,9 @@ class BatchController:
             sweep_cols=np.ascontiguousarray(np.swapaxes(half_sweep, 1, 2)),
             foot_offset=np.ascontiguousarray(
                 np.stack([x.template.foot_offset for x in kd])[k], dtype=float))
+        # read-only, as a lone controller's sweeps are: the same argument types, so
+        # the batch runs the plan kernel a lone controller has compiled
+        self._k.half_sweep.setflags(write=False)
         self._sc: dict[float, np.ndarray] = {}
 
     def _init_state(self, chars, seeds, gaits) -> None:
@@ -257,8 +268,8 @@ class BatchController:
         return [f"{GAIT_IDS[s]}->{GAIT_IDS[c]}" if t else GAIT_IDS[c]
                 for s, c, t in zip(self.source_name, self.current, self.in_transition)]
 
-    def _warn(self, key: str, mask, msg: str) -> None:
-        if key not in self._warned and np.any(mask):
+    def _warn(self, key: str, hit: bool, mask, msg: str) -> None:
+        if hit and key not in self._warned:
             self._warned.add(key)
             warnings.warn(f"{msg} for {int(np.count_nonzero(mask))} of {self.n} characters; "
                           "clamped", QuadsimClampWarning, stacklevel=3)
@@ -299,24 +310,34 @@ class BatchController:
             (n_g, 4) (m).
         """
         n = self.n
-        speed = np.broadcast_to(np.asarray(speed, dtype=float), (n,))
-        if not np.all(np.isfinite(speed)) or np.any(speed < 0):
+        # the commands as fresh writable (N,) arrays, the kernel's one signature
+        speed = _rows(speed, n, float)
+        if not (speed.min() >= 0.0 and speed.max() < math.inf):  # NaN fails both
             raise ValueError("`speed` must be finite and >= 0 m/s for every character")
-        turn = np.zeros(n) if turn_rate is None else np.broadcast_to(
-            np.asarray(turn_rate, dtype=float), (n,))
-        if not np.all(np.isfinite(turn)):
-            raise ValueError("`turn_rate` must be finite")
-        head = np.full(n, np.nan) if heading is None else np.broadcast_to(
-            np.asarray(heading, dtype=float), (n,))
-        gait = np.full(n, -1, dtype=np.int64) if gait is None else np.broadcast_to(
-            np.asarray(gait, dtype=np.int64), (n,))
-        asked = gait >= 0
-        if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
-            raise InputError("a requested gait id is not among its character's gaits")
-        frame = self._advance(speed, turn, head, gait, asked,
-                              self.dt if dt is None else float(dt))
+        if turn_rate is None:
+            turn = np.zeros(n)
+        else:
+            turn = _rows(turn_rate, n, float)
+            if not np.all(np.isfinite(turn)):
+                raise ValueError("`turn_rate` must be finite")
+        if heading is None:
+            head = np.full(n, np.nan)
+        else:  # the turn rate is not used where a heading is steered to
+            head = _rows(heading, n, float)
+            turn[np.isfinite(head)] = 0.0
+        if gait is None:
+            gait = np.full(n, -1, dtype=np.int64)
+        else:
+            gait = _rows(gait, n, np.int64)
+            asked = gait >= 0
+            if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
+                raise InputError("a requested gait id is not among its character's gaits")
+        # with pose, the plan kernel also packs the plans for the posing kernel
+        packed = np.empty((n, plan_columns(self._n_tail_max))) if pose else None
+        frame = self._advance(speed, turn, head, gait, self.dt if dt is None else float(dt),
+                              packed)
         if pose:
-            frame.update(self.pose(frame))
+            frame.update(self._pose_packed(packed))
         return frame
 
     def pose(self, plan: dict) -> dict:
@@ -331,8 +352,12 @@ class BatchController:
             (m) and ``ik_error`` (n_g, 4) (m): lists with one array per
             entry of :attr:`groups`.
         """
+        return self._pose_packed(pack_plan(plan, self._n_tail_max))
+
+    def _pose_packed(self, packed: np.ndarray) -> dict:
+        """:meth:`pose` of the plans packed (:func:`pack_plan` with the longest
+        tail: each kind reads its own)."""
         out = {"local_rotations": [], "positions": [], "ik_error": []}
-        packed = pack_plan(plan, self._n_tail_max)  # each kind reads its own tail
         for kd, (_, rows) in zip(self.kinds, self.groups):
             local, P, err = kd.poser.pose_packed(packed if len(self.kinds) == 1
                                                  else packed[rows])
@@ -341,25 +366,27 @@ class BatchController:
             out["ik_error"].append(err)
         return out
 
-    def _advance(self, v_cmd, turn, head, gait, asked, dt) -> dict:
+    def _advance(self, v_cmd, turn, head, gait, dt, packed=None) -> dict:
         sc = self._sc.get(dt)
         if sc is None:
             sc = self._sc[dt] = step_scalars(self.settings, dt)
         # the whole plan, compiled: the kernel a lone controller steps with
         # (plan_kernels.plan_rows), here over N rows; the state is updated in place.
         # From PARALLEL_ROWS rows on, one block of rows per thread
-        # (plan_rows_parallel): the same result whatever the number of threads
+        # (plan_rows_parallel): the same result whatever the number of threads.
+        # It also gives the stride fractions and, if asked, the packed plans
+        phase = np.empty((self.n, 4))
         feet, fold, pitch, sway, flags, aux = run_plan(
-            self._k, self, np.ascontiguousarray(v_cmd, dtype=float),
-            np.ascontiguousarray(np.where(np.isfinite(head), 0.0, turn), dtype=float),
-            np.ascontiguousarray(head, dtype=float), np.ascontiguousarray(gait, dtype=np.int64),
-            sc, self.settings.cpg.substeps, parallel=self.n >= PARALLEL_ROWS)
-        self._warn("gait_speed", flags[:, 0], "speed above what the requested gait reaches")
-        self._warn("speed", flags[:, 1], "speed above the character's fastest gait")
-        self._warn("turn", flags[:, 2], "turn rate beyond the character's maximum")
+            self._k, self, v_cmd, turn, head, gait, sc, self.settings.cpg.substeps,
+            parallel=self.n >= PARALLEL_ROWS, phase=phase, packed=packed)
+        if len(self._warned) < 3:  # each warning is given once
+            hit = flags.any(axis=0)
+            self._warn("gait_speed", hit[0], flags[:, 0],
+                       "speed above what the requested gait reaches")
+            self._warn("speed", hit[1], flags[:, 1], "speed above the character's fastest gait")
+            self._warn("turn", hit[2], flags[:, 2], "turn rate beyond the character's maximum")
         self.feet = feet
         self.time += dt
-        theta = self.theta
         root = np.stack([self.root_xz[:, 0], self.height, self.root_xz[:, 2]], axis=1)
         spine = self.spine_smooth.copy()
         bend = self.bend.copy()
@@ -369,7 +396,7 @@ class BatchController:
             "bend_yaw": bend, "bend_pitch": spine, "feet": feet,
             "fold": fold, "toe": 0.5 * fold, "tail": self.tail.copy(), "look": 0.5 * bend,
             "contacts": self.stance.copy(), "gait": self.current.copy(),
-            "phase": np.mod(theta / TWO_PI, 1.0), "speed": self.speed.copy(),
+            "phase": phase, "speed": self.speed.copy(),
             "duty": self.params[:, _pk.P_DUTY].copy(), "spine": spine,
             "heading_rate": self.yaw_rate.copy(),
             "amplitude": np.concatenate([self.r, self.r_s[:, None]], axis=1),

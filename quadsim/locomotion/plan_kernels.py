@@ -8,13 +8,19 @@ stride limits, the reach governor, the CPG
 :func:`feet_rows` (stage 5: lift-off and touchdown, swing progress,
 touchdown targets on the turning arc, Catmull-Rom swing paths) and
 :func:`body_rows` (stage 6: the spine's concave/convex machine and slow
-flexion, vaulting drops, height, pitch, girdle sway, tail). A lone
-:class:`~quadsim.locomotion.controller.ProceduralController` runs it on one
-row, :class:`~quadsim.locomotion.batch.BatchController` on N, so the two
-agree by construction. The numpy counterparts of stage 5, the tests'
-reference, are :func:`quadsim.locomotion.turning.arc_advance` and
+flexion, vaulting drops, height, pitch, girdle sway, tail); it also gives
+the legs' stride fractions and, when asked (stage 7), packs each row's plan
+for the posing kernel (:func:`~quadsim.locomotion.pose_kernel.pack_plan`'s
+layout). A lone :class:`~quadsim.locomotion.controller.ProceduralController`
+runs it on one row, :class:`~quadsim.locomotion.batch.BatchController` on
+N, so the two agree by construction. The numpy counterparts of stage 5, the
+tests' reference, are :func:`quadsim.locomotion.turning.arc_advance` and
 :func:`quadsim.locomotion.footpath.swing_position`; of the scheduler,
 :class:`quadsim.locomotion.transition.GaitScheduler`.
+
+The row helpers take whole arrays and a row index rather than views of a
+row (``keys[n]``): each view made in the loops costs an atomic reference
+count, which the threads of :func:`plan_rows_parallel` contend for.
 
 Units are SI (m, s, rad); legs in the order LF, RF, LH, RH.
 """
@@ -28,11 +34,21 @@ from numba import get_num_threads, njit, prange
 
 from quadsim.locomotion.cpg import TWO_PI, cpg_step_rows
 from quadsim.locomotion.footpath import SWING_KNOTS
+from quadsim.locomotion.pose_kernel import (BEND_PITCH, BEND_YAW, FEET, FOLD, HEADING, LOOK,
+                                            PITCH, ROOT, SWAY, TAIL, TOE)
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12
 
 _KNOTS = np.ascontiguousarray(SWING_KNOTS, dtype=float)
+
+
+@njit(cache=True, inline="always")
+def _frac(x):
+    """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
+    for every float (the difference is exact, or rounds the same sum as the
+    modulo's), without the library ``fmod`` call."""
+    return x - math.floor(x)
 
 
 @njit(cache=True)
@@ -73,7 +89,7 @@ def feet_rows(theta, theta_prev, duty, final_duty, freq, v, yaw_rate, keys, key_
         for i in range(4):
             th = theta[n, i]
             if stance[n, i]:
-                u = (th / TWO_PI) % 1.0
+                u = _frac(th / TWO_PI)
                 due = dn <= u and u <= 1.0 - MIN_SWING
                 if (due or trailing[n, i]) and th - theta_td[n, i] > 1e-9:
                     stance[n, i] = False
@@ -180,11 +196,13 @@ def body_rows(stance, u, duty, freq, v, bend, theta_s, keys, key_heading, foot_o
             if stance[n, i]:
                 support += math.sin(math.pi * min(max(u[n, i] / sdut, 0.0), 1.0))
         bob = 0.6 * drop[n] * h[n] * (0.5 - support / 4)
-        # vaulting: each girdle drops as far as its planted feet need
+        # vaulting: each girdle drops as far as its planted feet need (the
+        # girdles' headings' cosines and sines taken once)
+        c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
+        c0, s0 = math.cos(key_heading[n, 0]), math.sin(key_heading[n, 0])
         for i in range(4):
             g = 1 if i < 2 else 0
-            kh = key_heading[n, g]
-            c, sn = math.cos(kh), math.sin(kh)
+            c, sn = (c1, s1) if g else (c0, s0)
             ox, oy, oz = foot_offset[n, i, 0], foot_offset[n, i, 1], foot_offset[n, i, 2]
             mx = c * ox + sn * oz + keys[n, g, 0]
             my = oy + keys[n, g, 1]
@@ -194,23 +212,23 @@ def body_rows(stance, u, duty, freq, v, bend, theta_s, keys, key_heading, foot_o
             need[i] = 0.0
             if stance[n, i]:  # np.interp(x, sweep_cols[n, i], drops)
                 x = abs(along) / reach_margin
-                xp = sweep_cols[n, i]
                 j = -1
                 for k in range(D):
-                    if xp[k] <= x:
+                    if sweep_cols[n, i, k] <= x:
                         j += 1
                 if j < 0:
                     need[i] = drops[0]
                 elif j >= D - 1:
                     need[i] = drops[D - 1]
                 else:
-                    need[i] = (drops[j + 1] - drops[j]) / (xp[j + 1] - xp[j]) * (x - xp[j]) \
-                        + drops[j]
-            # the foot in its girdle's frame, for the sway
-            cm, sm = math.cos(-kh), math.sin(-kh)
+                    x0 = sweep_cols[n, i, j]
+                    need[i] = (drops[j + 1] - drops[j]) / (sweep_cols[n, i, j + 1] - x0) \
+                        * (x - x0) + drops[j]
+            # the foot in its girdle's frame, for the sway: turned by -heading,
+            # whose cosine is c and sine -sn
             fx, fz = feet[n, i, 0] - keys[n, g, 0], feet[n, i, 2] - keys[n, g, 2]
-            lx[i] = cm * fx + sm * fz
-            lz[i] = -sm * fx + cm * fz
+            lx[i] = c * fx - sn * fz
+            lz[i] = sn * fx + c * fz
         dh = max(drop[n], max(need[2], need[3]))
         df = max(drop[n], max(need[0], need[1]))
         drops_now[n, 0] += (dh - drops_now[n, 0]) * a_drop
@@ -249,86 +267,125 @@ NP_ = 11
 
 
 @njit(cache=True)
-def _interp1(x, xp, fp):
-    """``numpy.interp(x, xp, fp)`` for one ``x`` (the formula and order of operations of ``numpy.interp``)."""
+def _interp_knot(x, xp):
+    """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
+    for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
+    (its search and special cases, for :func:`_interp1` and its row forms)."""
     n = xp.shape[0]
     if x > xp[n - 1]:
-        return fp[n - 1]
+        return n - 1, 0
     if x < xp[0]:
-        return fp[0]
+        return 0, 0
     if x == xp[n - 1]:
-        return fp[n - 1]
+        return n - 1, 0
     j = 0
     while j + 1 < n and xp[j + 1] <= x:
         j += 1
     if j >= n - 1:
-        return fp[n - 1]
+        return n - 1, 0
     if xp[j] == x:
+        return j, 0
+    return j, 1
+
+
+@njit(cache=True)
+def _interp1(x, xp, fp):
+    """``numpy.interp(x, xp, fp)`` for one ``x`` (the formula and order of
+    operations of ``numpy.interp``)."""
+    j, line = _interp_knot(x, xp)
+    if not line:
         return fp[j]
     slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
     return slope * (x - xp[j]) + fp[j]
 
 
 @njit(cache=True)
-def _target_row(table, law, k, g, speed, out):
-    """GaitParams.of(gait ``g`` of kind ``k``, speed) into ``out`` (NP,)."""
-    for c in range(out.shape[0]):
-        out[c] = table[k, g, c]
+def _interp_row(x, xp, fp, n):
+    """:func:`_interp1` of ``x`` on row ``n`` of ``fp`` (N, D)."""
+    j, line = _interp_knot(x, xp)
+    if not line:
+        return fp[n, j]
+    slope = (fp[n, j + 1] - fp[n, j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[n, j]
+
+
+@njit(cache=True)
+def _interp_col(x, xp, fp, n, i):
+    """:func:`_interp1` of ``x`` on ``fp[n, :, i]`` (``fp`` (N, D, C))."""
+    j, line = _interp_knot(x, xp)
+    if not line:
+        return fp[n, j, i]
+    slope = (fp[n, j + 1, i] - fp[n, j, i]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[n, j, i]
+
+
+@njit(cache=True)
+def _target_row(table, law, k, g, speed, out, m):
+    """GaitParams.of(gait ``g`` of kind ``k``, speed) into row ``m`` of ``out`` (M, NP)."""
+    for c in range(out.shape[1]):
+        out[m, c] = table[k, g, c]
     lo, hi, d0, d1 = law[k, g, 0], law[k, g, 1], law[k, g, 2], law[k, g, 3]
     s = min(max((speed - lo) / (hi - lo), 0.0), 1.0)
-    out[P_DUTY] = d0 + s * (d1 - d0)
+    out[m, P_DUTY] = d0 + s * (d1 - d0)
 
 
 @njit(cache=True)
-def _scheduled_row(table, law, k, cur, in_tr, elapsed, duration, source, speed, out):
-    """GaitScheduler.params(speed) into ``out``."""
-    _target_row(table, law, k, cur, speed, out)
+def _scheduled_row(table, law, k, cur, in_tr, elapsed, duration, source, n, speed, out, m):
+    """GaitScheduler.params(speed) of row ``n`` (its transition's ``source[n]``)
+    into row ``m`` of ``out``."""
+    _target_row(table, law, k, cur, speed, out, m)
     if in_tr:
         s = min(elapsed / duration, 1.0) ** 2
-        for c in range(out.shape[0]):
+        for c in range(out.shape[1]):
             if c >= P_PH0 and c < P_PH0 + 4:
-                a = source[c]
-                dpsi = (out[c] - a + 0.5) % 1.0 - 0.5
-                out[c] = (a + s * dpsi) % 1.0
+                a = source[n, c]
+                dpsi = _frac(out[m, c] - a + 0.5) - 0.5
+                out[m, c] = _frac(a + s * dpsi)
             else:
-                a = source[c]
-                out[c] = a + s * (out[c] - a)
+                a = source[n, c]
+                out[m, c] = a + s * (out[m, c] - a)
 
 
 @njit(cache=True)
-def _keys_row(root, heading, bend, hind_z, body_length, keys, kh):
+def _keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
+    """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
+    ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
     fh = heading + 0.5 * bend
-    hx = root[0] + math.sin(heading) * hind_z
-    hy = root[1] + 0.0
-    hz = root[2] + math.cos(heading) * hind_z
-    keys[0, 0], keys[0, 1], keys[0, 2] = hx, hy, hz
-    keys[1, 0] = hx + math.sin(fh) * body_length
-    keys[1, 1] = hy + 0.0
-    keys[1, 2] = hz + math.cos(fh) * body_length
-    kh[0] = heading
-    kh[1] = heading + bend
+    hx = root_xz[n, 0] + math.sin(heading) * hind_z
+    hy = root_xz[n, 1] + 0.0
+    hz = root_xz[n, 2] + math.cos(heading) * hind_z
+    keys[n, 0, 0], keys[n, 0, 1], keys[n, 0, 2] = hx, hy, hz
+    keys[n, 1, 0] = hx + math.sin(fh) * body_length
+    keys[n, 1, 1] = hy + 0.0
+    keys[n, 1, 2] = hz + math.cos(fh) * body_length
+    kh[n, 0] = heading
+    kh[n, 1] = heading + bend
 
 
 @njit(cache=True)
-def _room_row(keys, kh, offset, planted, base, room):
-    """Trailing room (m) of each foot: ``base`` plus how far its planted point
-    is ahead of its mid-stance point along the girdle's forward vector."""
+def _room_row(keys, kh, offset, planted, base, room, n):
+    """Trailing room (m) of each foot of row ``n``: ``base`` plus how far its
+    planted point is ahead of its mid-stance point along the girdle's
+    forward vector (each girdle's cosine and sine taken once)."""
+    c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
+    c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
     for i in range(4):
         g = 1 if i < 2 else 0
-        c, sn = math.cos(kh[g]), math.sin(kh[g])
-        ox, oy, oz = offset[i, 0], offset[i, 1], offset[i, 2]
-        mx = c * ox + sn * oz + keys[g, 0]
-        my = oy + keys[g, 1]
-        mz = -sn * ox + c * oz + keys[g, 2]
-        room[i] = base + ((planted[i, 0] - mx) * sn + (planted[i, 1] - my) * 0.0
-                          + (planted[i, 2] - mz) * c)
+        c, sn = (c1, s1) if g else (c0, s0)
+        ox, oy, oz = offset[n, i, 0], offset[n, i, 1], offset[n, i, 2]
+        mx = c * ox + sn * oz + keys[n, g, 0]
+        my = oy + keys[n, g, 1]
+        mz = -sn * ox + c * oz + keys[n, g, 2]
+        room[i] = base + ((planted[n, i, 0] - mx) * sn + (planted[n, i, 1] - my) * 0.0
+                          + (planted[n, i, 2] - mz) * c)
 
 
 @njit(cache=True)
-def _stride_length(p, speed, h):
-    minv = p[P_MINV]
+def _stride_length(minv, coef, speed, h):
+    """Stride length (m) at ``speed`` for the parameters' least speed ``minv``
+    and stride coefficient ``coef``, leg length ``h`` (m)."""
     vc = max(max(speed, minv), 1e-3)
-    lam = h * p[P_COEF] * (vc * vc / (9.81 * h)) ** 0.3
+    lam = h * coef * (vc * vc / (9.81 * h)) ** 0.3
     return lam * speed / vc if speed < vc else lam
 
 
@@ -338,7 +395,8 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
               speed, yaw_rate, heading, root_xz, bend, theta, r, theta_s, r_s, freq,
               current, source_name, source, in_transition, elapsed, duration, params,
               stance, swing_s, theta_lo, theta_td, planted, liftoff, spine_angle,
-              spine_smooth, drops_now, height, tail, feet, fold, pitch, sway, flags, aux):
+              spine_smooth, drops_now, height, tail, feet, fold, pitch, sway, flags, aux,
+              phase, packed):
     """One step of the whole plan for N rows (characters), compiled: speed and
     turning, gait choice and transitions, stride limits, the reach governor,
     the CPG (:func:`~quadsim.locomotion.cpg.cpg_step_rows`), the body on its
@@ -351,7 +409,11 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
     automatic). The state arrays are updated in place; ``feet``, ``fold``,
     ``pitch``, ``sway`` are outputs, ``flags`` (N, 3) bool marks the clamps
     (gait speed, top speed, turn rate) and ``aux`` (N, 2) holds the speed and
-    the largest turn rate the turn clamp used, for the warnings.
+    the largest turn rate the turn clamp used, for the warnings. ``phase``
+    (N, 4) receives the legs' stride fractions; ``packed`` (N, F), unless it
+    has no columns, each row's plan packed for the posing
+    (:func:`~quadsim.locomotion.pose_kernel.pack_plan`'s layout, with
+    ``(F - TAIL) // 2`` tail joints, at most the state's).
     """
     N = theta.shape[0]
     dt = sc[S_DT]
@@ -363,7 +425,7 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
     keys = np.empty((N, 2, 3))
     kh = np.empty((N, 2))
     room = np.empty(4)
-    tgt = np.empty(params.shape[1])
+    tgt = np.empty((1, params.shape[1]))
     for n in range(N):
         k = kind[n]
         h = consts[C_H, n]
@@ -387,18 +449,18 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
             progress = min(elapsed[n] / duration[n], 1.0) if in_transition[n] else 0.0
             vc = min(vc, max(progress, 0.0) ** 2 * consts[C_WALK_TOP, n])
         # the reach governor: no planted foot out of reach before it lifts
-        _keys_row(root_xz[n], heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
-                  keys[n], kh[n])
+        _keys_row(root_xz, heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
+                  keys, kh, n)
         pd = params[n, P_DROP] + vault
         dmax = max(drops_now[n, 0], drops_now[n, 1])
-        base = _interp1(max(pd, dmax), drops, sweep_min[n])
-        _room_row(keys[n], kh[n], foot_offset[n], planted[n], base, room)
+        base = _interp_row(max(pd, dmax), drops, sweep_min, n)
+        _room_row(keys, kh, foot_offset, planted, base, room, n)
         duty = params[n, P_DUTY]
         gov = math.inf
         for i in range(4):
             if not stance[n, i]:
                 continue
-            u = (theta[n, i] / TWO_PI) % 1.0
+            u = _frac(theta[n, i] / TWO_PI)
             lifts = u < duty and 1.0 - MIN_SWING >= duty
             t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / freq[n]
             den = max(t_lo, dt)
@@ -462,32 +524,33 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
                 in_transition[n] = False
         if wanted != cur:
             _scheduled_row(table, law, k, cur, in_transition[n], elapsed[n], duration[n],
-                           source[n], v, tgt)
-            source[n, :] = tgt
+                           source, n, v, tgt, 0)
+            for c in range(tgt.shape[1]):
+                source[n, c] = tgt[0, c]
             source_name[n] = cur
             current[n] = wanted
             in_transition[n] = True
             elapsed[n] = 0.0
             duration[n] = 0.6 if quick else min(max(1.5 * period, 0.5), 2.0)
-        p = params[n]
         _scheduled_row(table, law, k, current[n], in_transition[n], elapsed[n], duration[n],
-                       source[n], v, p)
+                       source, n, v, params, n)
         # stride limits: every leg's sweep at this drop
-        pd = p[P_DROP] + vault
+        pd = params[n, P_DROP] + vault
         half = math.inf
         for i in range(4):
-            half = min(half, _interp1(pd, drops, half_sweep[n, :, i]))
-        margin = reach_margin - 0.05 * p[P_BOUND]
-        limit = 2.0 * margin * half / max(p[P_DUTY], 1e-3)
-        lam = min(_stride_length(p, v, h), limit)
-        lam_min = min(_stride_length(p, p[P_MINV], h), limit)
+            half = min(half, _interp_col(pd, drops, half_sweep, n, i))
+        margin = reach_margin - 0.05 * params[n, P_BOUND]
+        limit = 2.0 * margin * half / max(params[n, P_DUTY], 1e-3)
+        minv, coef = params[n, P_MINV], params[n, P_COEF]
+        lam = min(_stride_length(minv, coef, v, h), limit)
+        lam_min = min(_stride_length(minv, coef, minv, h), limit)
         if v > 1e-6:
-            freq[n] = max(v / lam, p[P_MINV] / lam_min)
+            freq[n] = max(v / lam, minv / lam_min)
         else:
-            freq[n] = p[P_MINV] / lam_min
+            freq[n] = minv / lam_min
         omega[n] = TWO_PI * freq[n]
         for i in range(4):
-            psi[n, i] = p[P_PH0 + i]
+            psi[n, i] = params[n, P_PH0 + i]
 
     # 3. CPG
     theta_prev = theta.copy()
@@ -521,40 +584,60 @@ def plan_rows(v_cmd_in, turn, head, gait, kind, consts, sc, substeps, table, law
         mb = sc[S_MAX_BEND]
         bt = min(max(yaw_rate[n] * consts[C_BODY, n] / max(v, 0.3 * h), -mb), mb)
         bend[n] += (bt - bend[n]) * sc[S_A_BEND]
-        _keys_row(root_xz[n], heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
-                  keys[n], kh[n])
-        _target_row(table, law, kind[n], current[n], v, tgt)
-        final[n] = tgt[P_DUTY]
-        p = params[n]
-        pd = p[P_DROP] + vault
+        _keys_row(root_xz, heading[n], bend[n], consts[C_HIND_Z, n], consts[C_BODY, n],
+                  keys, kh, n)
+        _target_row(table, law, kind[n], current[n], v, tgt, 0)
+        final[n] = tgt[0, P_DUTY]
+        pd = params[n, P_DROP] + vault
         dmax = max(drops_now[n, 0], drops_now[n, 1])
-        base = _interp1(max(pd, dmax), drops, sweep_min[n])
-        _room_row(keys[n], kh[n], foot_offset[n], planted[n], base, room)
+        base = _interp_row(max(pd, dmax), drops, sweep_min, n)
+        _room_row(keys, kh, foot_offset, planted, base, room, n)
         reach = v * dt
         for i in range(4):
             trailing[n, i] = room[i] < reach
-        half_min[n] = _interp1(pd, drops, sweep_min[n])
-        duty_a[n] = p[P_DUTY]
-        swing_a[n] = p[P_SWING]
-        spamp_a[n] = p[P_SPAMP]
-        bound_a[n] = p[P_BOUND]
-        drop_a[n] = p[P_DROP]
+        half_min[n] = _interp_row(pd, drops, sweep_min, n)
+        duty_a[n] = params[n, P_DUTY]
+        swing_a[n] = params[n, P_SWING]
+        spamp_a[n] = params[n, P_SPAMP]
+        bound_a[n] = params[n, P_BOUND]
+        drop_a[n] = params[n, P_DROP]
 
     # 5. feet
     feet_rows(theta, theta_prev, duty_a, final, freq, speed, yaw_rate, keys, kh, foot_offset,
               trailing, swing_a, half_min, reach_margin, stance, swing_s, theta_lo, theta_td,
               planted, liftoff, feet, fold)
     # 6. spine, height, tail
-    u = np.empty((N, 4))
     for n in range(N):
         for i in range(4):
-            u[n, i] = (theta[n, i] / TWO_PI) % 1.0
-    body_rows(stance, u, duty_a, freq, speed, bend, theta_s, keys, kh, foot_offset, feet,
+            phase[n, i] = _frac(theta[n, i] / TWO_PI)
+    body_rows(stance, phase, duty_a, freq, speed, bend, theta_s, keys, kh, foot_offset, feet,
               sweep_cols, drops, consts[C_FLEXED], consts[C_EXTENDED], consts[C_SLOW],
               spamp_a, bound_a, drop_a, consts[C_H], consts[C_PELVIS], consts[C_BODY],
               consts[C_NTAIL], reach_margin, sc[S_MAX_SWAY], dt, sc[S_A_SMOOTH],
               sc[S_A_DROP], sc[S_A_TAIL], spine_angle, spine_smooth, drops_now, height, tail,
               pitch, sway)
+    # 7. the plans packed for the posing (as pack_plan packs the frame's plan)
+    if packed.shape[1]:
+        n_tail = min((packed.shape[1] - TAIL) // 2, tail.shape[1])
+        for n in range(N):
+            packed[n, ROOT] = root_xz[n, 0]
+            packed[n, ROOT + 1] = height[n]
+            packed[n, ROOT + 2] = root_xz[n, 2]
+            packed[n, HEADING] = heading[n]
+            packed[n, PITCH] = pitch[n]
+            packed[n, SWAY] = sway[n, 0]
+            packed[n, SWAY + 1] = sway[n, 1]
+            packed[n, BEND_YAW] = bend[n]
+            packed[n, BEND_PITCH] = spine_smooth[n]
+            for i in range(4):
+                for c in range(3):
+                    packed[n, FEET + 3 * i + c] = feet[n, i, c]
+                packed[n, FOLD + i] = fold[n, i]
+                packed[n, TOE + i] = 0.5 * fold[n, i]
+            packed[n, LOOK] = 0.5 * bend[n]
+            for k in range(n_tail):
+                packed[n, TAIL + 2 * k] = tail[n, k, 0]
+                packed[n, TAIL + 2 * k + 1] = tail[n, k, 1]
 
 
 @njit(cache=True, parallel=True)
@@ -564,7 +647,7 @@ def plan_rows_parallel(n_blocks, v_cmd_in, turn, head, gait, kind, consts, sc, s
                        r_s, freq, current, source_name, source, in_transition, elapsed,
                        duration, params, stance, swing_s, theta_lo, theta_td, planted,
                        liftoff, spine_angle, spine_smooth, drops_now, height, tail, feet, fold,
-                       pitch, sway, flags, aux):
+                       pitch, sway, flags, aux, phase, packed):
     """:func:`plan_rows` with the rows split into one block per thread.
 
     Rows are independent (no reduction over rows; each block's
@@ -595,7 +678,7 @@ def plan_rows_parallel(n_blocks, v_cmd_in, turn, head, gait, kind, consts, sc, s
                       stance[a:e], swing_s[a:e], theta_lo[a:e], theta_td[a:e],
                       planted[a:e], liftoff[a:e], spine_angle[a:e], spine_smooth[a:e],
                       drops_now[a:e], height[a:e], tail[a:e], feet[a:e], fold[a:e],
-                      pitch[a:e], sway[a:e], flags[a:e], aux[a:e])
+                      pitch[a:e], sway[a:e], flags[a:e], aux[a:e], phase[a:e], packed[a:e])
 
 
 #: The per-row state :func:`plan_rows` updates, in its argument order.
@@ -625,11 +708,14 @@ def step_scalars(settings, dt: float) -> np.ndarray:
     return sc
 
 
-def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps, parallel: bool = False):
+def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps, parallel: bool = False,
+             phase=None, packed=None):
     """:func:`plan_rows` on the constants ``k`` and the state ``s`` (objects with
     the arrays as attributes); :func:`plan_rows_parallel` (the same result,
     on every thread) if ``parallel``. Returns feet (N, 4, 3), fold (N, 4),
-    pitch (N,), sway (N, 2), flags (N, 3) and aux (N, 2)."""
+    pitch (N,), sway (N, 2), flags (N, 3) and aux (N, 2); ``phase`` (N, 4)
+    and ``packed`` (N, F), if given, receive the stride fractions and the
+    packed plans (see :func:`plan_rows`)."""
     n = s.theta.shape[0]
     feet = np.empty((n, 4, 3))
     fold = np.empty((n, 4))
@@ -637,6 +723,10 @@ def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps, parallel: bool = False
     sway = np.empty((n, 2))
     flags = np.empty((n, 3), dtype=np.bool_)
     aux = np.empty((n, 2))
+    if phase is None:
+        phase = np.empty((n, 4))
+    if packed is None:
+        packed = np.empty((n, 0))
     lead = (get_num_threads(),) if parallel else ()
     kernel = plan_rows_parallel if parallel else plan_rows
     kernel(*lead, v_cmd, turn, head, gait, k.kind, k.consts, sc, substeps, k.table, k.law,
@@ -645,5 +735,5 @@ def run_plan(k, s, v_cmd, turn, head, gait, sc, substeps, parallel: bool = False
            s.theta_s, s.r_s, s.freq, s.current, s.source_name, s.source, s.in_transition,
            s.elapsed, s.duration, s.params, s.stance, s.swing_s, s.theta_lo, s.theta_td,
            s.planted, s.liftoff, s.spine_angle, s.spine_smooth, s.drops_now, s.height,
-           s.tail, feet, fold, pitch, sway, flags, aux)
+           s.tail, feet, fold, pitch, sway, flags, aux, phase, packed)
     return feet, fold, pitch, sway, flags, aux

@@ -1,14 +1,21 @@
 """The posing of plans, compiled: spine, neck, tail, leg IK and forward kinematics.
 
-:func:`pose_rows` turns a block of packed plans (one row per frame or per
-character, all of one character) into local joint rotations, world joint
-positions and IK errors, in one compiled loop over the rows (numba). It is
-the only implementation of the posing: :meth:`Poser.pose
-<quadsim.locomotion.posing.Poser.pose>` packs the plans of a clip or of many
-characters, the interactive step packs one frame. The array forms it mirrors
--- :func:`~quadsim.kinematics.ik.solve_leg` and
+:func:`pose_rows` turns packed plans (one row per frame or per character,
+all of one character) into local joint rotations, world joint positions and
+IK errors, compiled (numba): blocks of :data:`CHUNK` rows go through the
+trunk (:func:`_trunk_rows`: spine, tail, neck and the trunk's forward
+kinematics), the legs' IK (:func:`_leg_rows`) and the other joints' forward
+kinematics (:func:`_rest_rows`). It is the only implementation of the
+posing: :meth:`Poser.pose <quadsim.locomotion.posing.Poser.pose>` packs the
+plans of a clip or of many characters, the batch's plan kernel
+(:func:`~quadsim.locomotion.plan_kernels.plan_rows`) packs its rows as it
+plans them, the interactive step packs one frame. The array forms it
+mirrors -- :func:`~quadsim.kinematics.ik.solve_leg` and
 :func:`~quadsim.skeleton.fk.forward_kinematics` -- stay the general,
-vectorised API and the tests' reference.
+vectorised API and the tests' reference. The kernel makes fewer
+trigonometric calls (it shares cosines and sines, and works with them in
+place of angles where it can), so the two agree to rounding (about 1e-13),
+not bit for bit.
 
 Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 ``root`` (3), ``heading``, ``pitch``, ``sway`` (2), ``bend_yaw``,
@@ -18,10 +25,11 @@ Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 Leg constants (:func:`pack_legs`), per leg LF, RF, LH, RH: ``leg_int`` (4, 4 + n_max + 1)
 holds the number of bones n, the pair's upper bone, the top joint's parent,
 whether the post joints are limited (0/1) and the chain's joint indices;
-``leg_top`` (4, 3) the top joint's offset (m); ``leg_bones`` (4, 5, n_max)
+``leg_top`` (4, 3) the top joint's offset (m); ``leg_bones`` (4, 7, n_max)
 the bone lengths (m), rest angles, full-fold angles, lower and upper flexion
-limits (rad); ``leg_scal`` (4, 5) the bend sign, pre and post gains, toe
-angle and rest leg angle (rad). Conventions as in :mod:`quadsim.kinematics.ik`.
+limits (rad) and the rest angles' cosines and sines; ``leg_scal`` (4, 5) the
+bend sign, pre and post gains, toe angle and rest leg angle (rad).
+Conventions as in :mod:`quadsim.kinematics.ik`.
 """
 
 from __future__ import annotations
@@ -81,147 +89,409 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     n_max = max(g.n_bones for g in legs)
     leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
     leg_top = np.zeros((len(legs), 3))
-    leg_bones = np.zeros((len(legs), 5, n_max))
+    leg_bones = np.zeros((len(legs), 7, n_max))
     leg_scal = np.zeros((len(legs), 5))
     for i, g in enumerate(legs):
         n = g.n_bones
         leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
         leg_int[i, 4:4 + n + 1] = g.chain
         leg_top[i] = g.top_offset
-        for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper)):
+        for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
+                                 np.cos(g.rest_angles), np.sin(g.rest_angles))):
             leg_bones[i, r, :n] = arr
         leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
     return leg_int, leg_top, leg_bones, leg_scal
 
 
-@njit(cache=True)
-def _yaw_pitch(M, yaw, pitch):
-    """``M[:] = R_y(yaw) @ R_x(pitch)`` (as ``matrices_yaw_pitch``)."""
-    ca, sa, cb, sb = math.cos(yaw), math.sin(yaw), math.cos(pitch), math.sin(pitch)
-    M[0, 0] = ca
-    M[0, 1] = sa * sb
-    M[0, 2] = sa * cb
-    M[1, 0] = 0.0
-    M[1, 1] = cb
-    M[1, 2] = -sb
-    M[2, 0] = -sa
-    M[2, 1] = ca * sb
-    M[2, 2] = ca * cb
+@njit(cache=True, inline="always")
+def _yaw_pitch(local, t, j, ca, sa, cb, sb):
+    """``local[t, j] = R_y(yaw) @ R_x(pitch)`` (as ``matrices_yaw_pitch``) from
+    the cosines and sines of yaw (``ca``, ``sa``) and pitch (``cb``, ``sb``)."""
+    local[t, j, 0, 0] = ca
+    local[t, j, 0, 1] = sa * sb
+    local[t, j, 0, 2] = sa * cb
+    local[t, j, 1, 0] = 0.0
+    local[t, j, 1, 1] = cb
+    local[t, j, 1, 2] = -sb
+    local[t, j, 2, 0] = -sa
+    local[t, j, 2, 1] = ca * sb
+    local[t, j, 2, 2] = ca * cb
+
+
+#: How :func:`_fk_joint` multiplies by a joint's local rotation (``_layout``).
+FK_FULL, FK_ABOUT_X, FK_IDENTITY = 0, 1, 2
+
+
+@njit(cache=True, inline="always")
+def _fk_joint(t, g, j, p, how, frame, local, offsets, G, positions):
+    """World position of joint ``j`` of row ``t`` from its parent ``p``'s
+    world frame ``G[g, p]``, and its own world frame ``G[g, j]`` if
+    ``frame`` (in place). ``how`` is :data:`FK_FULL`, or :data:`FK_ABOUT_X`
+    for a local rotation about +X, or :data:`FK_IDENTITY` for the identity:
+    then only the products with the rotation's non-zero entries are taken,
+    which the full product's zero terms do not change (bar the sign of a
+    zero). The parent's frame is read once, into scalars."""
+    a00, a01, a02 = G[g, p, 0, 0], G[g, p, 0, 1], G[g, p, 0, 2]
+    a10, a11, a12 = G[g, p, 1, 0], G[g, p, 1, 1], G[g, p, 1, 2]
+    a20, a21, a22 = G[g, p, 2, 0], G[g, p, 2, 1], G[g, p, 2, 2]
+    o0, o1, o2 = offsets[j, 0], offsets[j, 1], offsets[j, 2]
+    positions[t, j, 0] = positions[t, p, 0] + (a00 * o0 + a01 * o1 + a02 * o2)
+    positions[t, j, 1] = positions[t, p, 1] + (a10 * o0 + a11 * o1 + a12 * o2)
+    positions[t, j, 2] = positions[t, p, 2] + (a20 * o0 + a21 * o1 + a22 * o2)
+    if not frame:
+        return
+    if how == FK_IDENTITY:
+        G[g, j, 0, 0], G[g, j, 0, 1], G[g, j, 0, 2] = a00, a01, a02
+        G[g, j, 1, 0], G[g, j, 1, 1], G[g, j, 1, 2] = a10, a11, a12
+        G[g, j, 2, 0], G[g, j, 2, 1], G[g, j, 2, 2] = a20, a21, a22
+        return
+    l11, l12 = local[t, j, 1, 1], local[t, j, 1, 2]
+    l21, l22 = local[t, j, 2, 1], local[t, j, 2, 2]
+    if how == FK_ABOUT_X:
+        G[g, j, 0, 0] = a00
+        G[g, j, 0, 1] = a01 * l11 + a02 * l21
+        G[g, j, 0, 2] = a01 * l12 + a02 * l22
+        G[g, j, 1, 0] = a10
+        G[g, j, 1, 1] = a11 * l11 + a12 * l21
+        G[g, j, 1, 2] = a11 * l12 + a12 * l22
+        G[g, j, 2, 0] = a20
+        G[g, j, 2, 1] = a21 * l11 + a22 * l21
+        G[g, j, 2, 2] = a21 * l12 + a22 * l22
+        return
+    l00, l01, l02 = local[t, j, 0, 0], local[t, j, 0, 1], local[t, j, 0, 2]
+    l10, l20 = local[t, j, 1, 0], local[t, j, 2, 0]
+    G[g, j, 0, 0] = a00 * l00 + a01 * l10 + a02 * l20
+    G[g, j, 0, 1] = a00 * l01 + a01 * l11 + a02 * l21
+    G[g, j, 0, 2] = a00 * l02 + a01 * l12 + a02 * l22
+    G[g, j, 1, 0] = a10 * l00 + a11 * l10 + a12 * l20
+    G[g, j, 1, 1] = a10 * l01 + a11 * l11 + a12 * l21
+    G[g, j, 1, 2] = a10 * l02 + a11 * l12 + a12 * l22
+    G[g, j, 2, 0] = a20 * l00 + a21 * l10 + a22 * l20
+    G[g, j, 2, 1] = a20 * l01 + a21 * l11 + a22 * l21
+    G[g, j, 2, 2] = a20 * l02 + a21 * l12 + a22 * l22
 
 
 @njit(cache=True)
-def _fk_joint(j, p, L, offsets, G, P):
-    """World frame of joint ``j`` from its parent ``p``'s (in place)."""
-    for i in range(3):
-        for c in range(3):
-            G[j, i, c] = G[p, i, 0] * L[j, 0, c] + G[p, i, 1] * L[j, 1, c] \
-                + G[p, i, 2] * L[j, 2, c]
-        P[j, i] = P[p, i] + (G[p, i, 0] * offsets[j, 0] + G[p, i, 1] * offsets[j, 1]
-                             + G[p, i, 2] * offsets[j, 2])
+def _layout(parents, spine, tail, neck, trunk, leg_int):
+    """What :func:`pose_rows` works out once per call from the skeleton.
+
+    Returns ``how`` (J,), each joint's :func:`_fk_joint` product (the leg
+    joints below the top turn about +X, the joints no stage sets keep the
+    identity); ``frame`` (J,) bool, whether a joint has children (a leaf's
+    world frame is never read); ``fixed``, the joints left at the identity;
+    and ``rest``, the joints of the second forward kinematics pass: those
+    outside the trunk -- or every joint but the root, should a joint the
+    neck or a leg sets be in the trunk, whose first-pass frames would then
+    be stale.
+    """
+    J = parents.shape[0]
+    how = np.full(J, FK_IDENTITY, dtype=np.int64)
+    frame = np.zeros(J, dtype=np.bool_)
+    in_trunk = np.zeros(J, dtype=np.bool_)
+    late = np.zeros(J, dtype=np.bool_)  # set after the first pass
+    for j in range(1, J):
+        frame[parents[j]] = True
+    for m in range(trunk.shape[0]):
+        in_trunk[trunk[m]] = True
+    how[0] = FK_FULL
+    for k in range(spine.shape[0]):
+        how[spine[k]] = FK_FULL
+    for k in range(tail.shape[0]):
+        how[tail[k]] = FK_FULL
+    for k in range(neck.shape[0]):
+        how[neck[k]] = FK_FULL
+        late[neck[k]] = True
+    for i in range(leg_int.shape[0]):
+        for k in range(leg_int[i, 0] + 1):
+            j = leg_int[i, 4 + k]
+            how[j] = FK_FULL if k == 0 else FK_ABOUT_X
+            late[j] = True
+    stale = False
+    n_fixed = 0
+    for j in range(J):
+        if how[j] == FK_IDENTITY:
+            n_fixed += 1
+        if in_trunk[j] and late[j]:
+            stale = True
+    n_rest = 0
+    for j in range(1, J):
+        if stale or not in_trunk[j]:
+            n_rest += 1
+    fixed = np.empty(n_fixed, dtype=np.int64)
+    rest = np.empty(n_rest, dtype=np.int64)
+    n_fixed = 0
+    n_rest = 0
+    for j in range(J):
+        if how[j] == FK_IDENTITY:
+            fixed[n_fixed] = j
+            n_fixed += 1
+        if j > 0 and (stale or not in_trunk[j]):
+            rest[n_rest] = j
+            n_rest += 1
+    return how, frame, fixed, rest
 
 
 @njit(cache=True)
-def _solve_pair(phi, n, k0, L, bend, qd, qf, down_t, fwd_t):
-    """Solve the two-bone pair in place in ``phi`` (see ``ik._solve_pair``);
-    returns how far the foot falls short of the target (m)."""
-    cd = 0.0
-    cf = 0.0
-    for k in range(k0 + 2, n):
-        cd += L[k] * math.cos(phi[k])
-        cf += L[k] * math.sin(phi[k])
-    cd = down_t - cd
-    cf = fwd_t - cf
-    l1 = L[k0]
-    l2 = L[k0 + 1]
+def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
+    """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
+    towards C = (``cd``, ``cf``), the target less the post bones (see
+    ``ik._solve_pair``), as cosines and sines.
+
+    Returns the upper bone's cosine and sine, the lower bone's, the lower
+    bone's vector (its angle is ``atan2(y, x)``) and how far the foot falls
+    short of the target (m). The law of cosines is taken in cosines and
+    sines: those of the direction to C (``gam``) and of the bend (``bend *
+    delta``, its sine from its cosine for a bend of +-1) give the upper
+    bone's as those of a sum (equal to rounding); the upper bone's angle
+    itself is never needed.
+    """
     vd = cd - qd
     vf = cf - qf
-    r_true = math.hypot(vd, vf)
+    r_true = math.sqrt(vd * vd + vf * vf)
     r = min(max(r_true, abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
-    gam = math.atan2(vf, vd)
+    if r_true > 0.0:  # (cos, sin) of gam = atan2(vf, vd)
+        cg = vd / r_true
+        sg = vf / r_true
+    else:
+        gam = math.atan2(vf, vd)
+        cg = math.cos(gam)
+        sg = math.sin(gam)
     cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
-    phi[k0] = gam + bend * math.acos(cos_delta)
-    bd = qd + l1 * math.cos(phi[k0])
-    bf = qf + l1 * math.sin(phi[k0])
-    phi[k0 + 1] = math.atan2(qf + r * math.sin(gam) - bf, qd + r * math.cos(gam) - bd)
-    return abs(r_true - r)
+    if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
+        cb = cos_delta
+        sb = bend * math.sqrt((1.0 - cos_delta) * (1.0 + cos_delta))
+    else:
+        turn = bend * math.acos(cos_delta)
+        cb = math.cos(turn)
+        sb = math.sin(turn)
+    c0 = cg * cb - sg * sb  # the upper bone at gam + bend * delta
+    s0 = sg * cb + cg * sb
+    x = qd + r * cg - (qd + l1 * c0)
+    y = qf + r * sg - (qf + l1 * s0)
+    h = math.sqrt(x * x + y * y)
+    if h > 0.0:
+        c1 = x / h
+        s1 = y / h
+    else:
+        lower = math.atan2(y, x)
+        c1 = math.cos(lower)
+        s1 = math.sin(lower)
+    return c0, s0, c1, s1, x, y, abs(r_true - r)
 
 
 @njit(cache=True)
-def _solve_leg(i, Gp, Pp, tx, ty, tz, fold, toe, leg_int, leg_top, leg_bones, leg_scal,
-               phi, Lout):
-    """Leg ``i``'s IK (``ik.solve_leg`` for one leg and one frame): writes the
-    chain's local rotations into ``Lout`` (J, 3, 3), returns the miss (m)."""
-    n = leg_int[i, 0]
-    k0 = leg_int[i, 1]
-    limited = leg_int[i, 3]
-    lengths = leg_bones[i, 0]
-    A0 = leg_bones[i, 1]
-    folds = leg_bones[i, 2]
-    lower = leg_bones[i, 3]
-    upper = leg_bones[i, 4]
-    bend, pre_gain, post_gain = leg_scal[i, 0], leg_scal[i, 1], leg_scal[i, 2]
-    toe_angle, rest_leg = leg_scal[i, 3], leg_scal[i, 4]
-    ox, oy, oz = leg_top[i, 0], leg_top[i, 1], leg_top[i, 2]
-    ex = tx - (Pp[0] + (Gp[0, 0] * ox + Gp[0, 1] * oy + Gp[0, 2] * oz))
-    ey = ty - (Pp[1] + (Gp[1, 0] * ox + Gp[1, 1] * oy + Gp[1, 2] * oz))
-    ez = tz - (Pp[2] + (Gp[2, 0] * ox + Gp[2, 1] * oy + Gp[2, 2] * oz))
-    # the target in the parent's frame
-    d0 = Gp[0, 0] * ex + Gp[1, 0] * ey + Gp[2, 0] * ez
-    d1 = Gp[0, 1] * ex + Gp[1, 1] * ey + Gp[2, 1] * ez
-    d2 = Gp[0, 2] * ex + Gp[1, 2] * ey + Gp[2, 2] * ez
-    # abduction about the parent's forward axis brings it into the leg's plane
-    a = math.atan2(d0, -d1)
-    ca, sa = math.cos(a), math.sin(a)
-    down_t = -(d1 * ca - d0 * sa)
-    fwd_t = d2
-    # world down in the leg plane
-    gy = -(Gp[0, 1] * -1.0) * sa + (Gp[1, 1] * -1.0) * ca
-    phi_down = math.atan2(Gp[2, 1] * -1.0, -gy)
-    swing = math.atan2(fwd_t, down_t) - rest_leg
-    qd = 0.0
-    qf = 0.0
-    for k in range(k0):  # pre bones swing with the leg
-        phi[k] = A0[k] + pre_gain * swing
-        qd = qd + lengths[k] * math.cos(phi[k])
-        qf = qf + lengths[k] * math.sin(phi[k])
-    for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded
-        phi[k] = A0[k] + phi_down + post_gain * swing + folds[k] * fold
-    reached = _solve_pair(phi, n, k0, lengths, bend, qd, qf, down_t, fwd_t)
-    # post joints inside their limits, then the pair again (twice)
-    for _ in range(2 if limited else 0):
-        for k in range(k0 + 2, n):
-            above = A0[k - 1] - phi[k - 1]
-            rel = min(max((A0[k] - phi[k]) - above, lower[k]), upper[k])
-            phi[k] = A0[k] - above - rel
-        reached = _solve_pair(phi, n, k0, lengths, bend, qd, qf, down_t, fwd_t)
-    prev = 0.0
-    for k in range(n + 1):
-        if k < n:
-            cum = A0[k] - phi[k]
-        else:
-            cum = toe_angle - (phi_down + math.pi / 2 + toe)
-        rel = cum - prev if k else cum
-        prev = cum
-        cb, sb = math.cos(rel), math.sin(rel)
-        M = Lout[leg_int[i, 4 + k]]
-        if k == 0:  # R_z(a) @ R_x(rel)
-            M[0, 0] = ca
-            M[0, 1] = -sa * cb
-            M[0, 2] = sa * sb
-            M[1, 0] = sa
-            M[1, 1] = ca * cb
-            M[1, 2] = -ca * sb
-        else:
-            M[0, 0] = 1.0
-            M[0, 1] = 0.0
-            M[0, 2] = 0.0
-            M[1, 0] = 0.0
-            M[1, 1] = cb
-            M[1, 2] = -sb
-        M[2, 0] = 0.0
-        M[2, 1] = sb
-        M[2, 2] = cb
-    return reached
+def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
+                local, positions, G):
+    """Rows ``a`` to ``b`` of :func:`pose_rows` up to the legs: the pelvis,
+    spine, tail and neck rotations and the trunk's world frames
+    (``G[t - a]``) and positions.
+
+    Rotations that share an angle share its cosine and sine: the spine
+    joints' common pitch and the yaw of the joints between the first and
+    the last, the neck's yaw and pitch.
+    """
+    K = spine.shape[0]
+    nn = neck.shape[0]
+    for t in range(a, b):
+        g = t - a
+        for m in range(fixed.shape[0]):
+            j = fixed[m]
+            for r in range(3):
+                for c in range(3):
+                    local[t, j, r, c] = 1.0 if r == c else 0.0
+        flex = plan[t, BEND_PITCH]
+        sway0 = plan[t, SWAY]
+        sway1 = plan[t, SWAY + 1]
+        # pelvis: heading plus hind sway, tilted back by half the flexion
+        yaw = plan[t, HEADING] + sway0
+        pitch = plan[t, PITCH] - 0.5 * flex
+        _yaw_pitch(local, t, 0, math.cos(yaw), math.sin(yaw), math.cos(pitch),
+                   math.sin(pitch))
+        # the spine: one pitch; the yaw of the first and last joints has the sway
+        pitch = flex / K * 1.0
+        cb, sb = math.cos(pitch), math.sin(pitch)
+        ca, sa = 1.0, 0.0
+        for k in range(K):
+            if k < 2 or k == K - 1:  # else the middle joints' yaw, as joint 1's
+                yaw = plan[t, BEND_YAW] / K * 1.0
+                if k == 0:
+                    yaw = yaw - sway0
+                if k == K - 1:
+                    yaw = yaw + sway1
+                ca, sa = math.cos(yaw), math.sin(yaw)
+            _yaw_pitch(local, t, spine[k], ca, sa, cb, sb)
+        for k in range(tail.shape[0]):
+            yaw = plan[t, TAIL + 2 * k + 1]
+            pitch = plan[t, TAIL + 2 * k]
+            _yaw_pitch(local, t, tail[k], math.cos(yaw), math.sin(yaw), math.cos(pitch),
+                       math.sin(pitch))
+        # the trunk's world frames
+        for r in range(3):
+            for c in range(3):
+                G[g, 0, r, c] = local[t, 0, r, c]
+            positions[t, 0, r] = plan[t, ROOT + r]
+        for m in range(1, trunk.shape[0]):
+            j = trunk[m]
+            _fk_joint(t, g, j, parents[j], how[j], True, local, offsets, G, positions)
+        # neck and head: keep the head level, look into the turn
+        if nn:
+            pitch = -math.asin(min(max(-G[g, thorax, 1, 2], -1.0), 1.0)) / nn * 1.0
+            yaw = plan[t, LOOK] / nn * 1.0
+            ca, sa = math.cos(yaw), math.sin(yaw)
+            cb, sb = math.cos(pitch), math.sin(pitch)
+            for k in range(nn):
+                _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
+
+
+@njit(cache=True)
+def _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, local, err):
+    """The legs' IK (``ik.solve_leg``, leg by leg) in rows ``a`` to ``b``, from
+    their parents' world frames ``G[t - a]`` and positions: writes the
+    chains' local rotations and the misses ``err`` (m).
+
+    The bones' in-plane angles ``phi`` are carried with their cosines and
+    sines, from which the pair (:func:`_solve_pair`) and the local rotations
+    follow without more trigonometry. A limit pass that moves no post bone
+    would solve the same pair again, so the pair is solved again only after
+    a pass that does (the joint limits rarely bind in a stride).
+    """
+    n_max = leg_bones.shape[2]
+    phi = np.empty(n_max)
+    cphi = np.empty(n_max)
+    sphi = np.empty(n_max)
+    for t in range(a, b):
+        g = t - a
+        for i in range(leg_int.shape[0]):
+            n = leg_int[i, 0]
+            k0 = leg_int[i, 1]
+            p = leg_int[i, 2]
+            limited = leg_int[i, 3]
+            bend, pre_gain, post_gain = leg_scal[i, 0], leg_scal[i, 1], leg_scal[i, 2]
+            toe_angle, rest_leg = leg_scal[i, 3], leg_scal[i, 4]
+            l1 = leg_bones[i, 0, k0]
+            l2 = leg_bones[i, 0, k0 + 1]
+            ox, oy, oz = leg_top[i, 0], leg_top[i, 1], leg_top[i, 2]
+            ex = plan[t, FEET + 3 * i] - (positions[t, p, 0] + (
+                G[g, p, 0, 0] * ox + G[g, p, 0, 1] * oy + G[g, p, 0, 2] * oz))
+            ey = plan[t, FEET + 3 * i + 1] - (positions[t, p, 1] + (
+                G[g, p, 1, 0] * ox + G[g, p, 1, 1] * oy + G[g, p, 1, 2] * oz))
+            ez = plan[t, FEET + 3 * i + 2] - (positions[t, p, 2] + (
+                G[g, p, 2, 0] * ox + G[g, p, 2, 1] * oy + G[g, p, 2, 2] * oz))
+            # the target in the parent's frame
+            d0 = G[g, p, 0, 0] * ex + G[g, p, 1, 0] * ey + G[g, p, 2, 0] * ez
+            d1 = G[g, p, 0, 1] * ex + G[g, p, 1, 1] * ey + G[g, p, 2, 1] * ez
+            d2 = G[g, p, 0, 2] * ex + G[g, p, 1, 2] * ey + G[g, p, 2, 2] * ez
+            # abduction a = atan2(d0, -d1) about the parent's forward axis
+            # brings it into the leg's plane (only its cosine and sine are used)
+            rho = math.sqrt(d0 * d0 + d1 * d1)
+            if rho > 0.0:
+                ca = -d1 / rho
+                sa = d0 / rho
+            else:
+                ab = math.atan2(d0, -d1)
+                ca, sa = math.cos(ab), math.sin(ab)
+            down_t = -(d1 * ca - d0 * sa)
+            fwd_t = d2
+            # world down in the leg plane
+            gy = -(G[g, p, 0, 1] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
+            phi_down = math.atan2(G[g, p, 2, 1] * -1.0, -gy)
+            swing = math.atan2(fwd_t, down_t) - rest_leg
+            qd = 0.0
+            qf = 0.0
+            for k in range(k0):  # pre bones swing with the leg
+                ang = leg_bones[i, 1, k] + pre_gain * swing
+                phi[k] = ang
+                cphi[k] = math.cos(ang)
+                sphi[k] = math.sin(ang)
+                qd = qd + leg_bones[i, 0, k] * cphi[k]
+                qf = qf + leg_bones[i, 0, k] * sphi[k]
+            for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded
+                ang = leg_bones[i, 1, k] + phi_down + post_gain * swing \
+                    + leg_bones[i, 2, k] * plan[t, FOLD + i]
+                phi[k] = ang
+                cphi[k] = math.cos(ang)
+                sphi[k] = math.sin(ang)
+            # post joints inside their limits, then the pair again (twice); a
+            # pass that moves no bone would solve the same pair again: done
+            for rep in range(3 if limited else 1):
+                if rep:
+                    moved = False
+                    for k in range(k0 + 2, n):
+                        above = leg_bones[i, 1, k - 1] - phi[k - 1]
+                        rel = (leg_bones[i, 1, k] - phi[k]) - above
+                        lo = leg_bones[i, 3, k]
+                        hi = leg_bones[i, 4, k]
+                        if not (rel >= lo and rel <= hi):
+                            rel = min(max(rel, lo), hi)
+                            ang = leg_bones[i, 1, k] - above - rel
+                            phi[k] = ang
+                            cphi[k] = math.cos(ang)
+                            sphi[k] = math.sin(ang)
+                            moved = True
+                    if not moved:
+                        break
+                cd = 0.0
+                cf = 0.0
+                for k in range(k0 + 2, n):
+                    cd += leg_bones[i, 0, k] * cphi[k]
+                    cf += leg_bones[i, 0, k] * sphi[k]
+                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf,
+                                                            down_t - cd, fwd_t - cf)
+                cphi[k0], sphi[k0], cphi[k0 + 1], sphi[k0 + 1] = c0, s0, c1, s1
+                if limited:
+                    phi[k0 + 1] = math.atan2(y, x)
+            err[t, i] = reached
+            # local rotations about +X by rel_k = cum_k - cum_(k-1), where
+            # cum_k = A0_k - phi_k (the foot's: toe_angle - (phi_down + pi / 2
+            # + toe)), as the cosine and sine of angle differences
+            pc = 1.0
+            ps = 0.0
+            for k in range(n + 1):
+                if k < n:  # cos and sin of A0_k - phi_k
+                    cc = leg_bones[i, 5, k] * cphi[k] + leg_bones[i, 6, k] * sphi[k]
+                    cs = leg_bones[i, 6, k] * cphi[k] - leg_bones[i, 5, k] * sphi[k]
+                else:
+                    cum = toe_angle - (phi_down + math.pi / 2 + plan[t, TOE + i])
+                    cc = math.cos(cum)
+                    cs = math.sin(cum)
+                cb = cc * pc + cs * ps
+                sb = cs * pc - cc * ps
+                pc = cc
+                ps = cs
+                j = leg_int[i, 4 + k]
+                if k == 0:  # R_z(a) @ R_x(rel)
+                    local[t, j, 0, 0] = ca
+                    local[t, j, 0, 1] = -sa * cb
+                    local[t, j, 0, 2] = sa * sb
+                    local[t, j, 1, 0] = sa
+                    local[t, j, 1, 1] = ca * cb
+                    local[t, j, 1, 2] = -ca * sb
+                else:
+                    local[t, j, 0, 0] = 1.0
+                    local[t, j, 0, 1] = 0.0
+                    local[t, j, 0, 2] = 0.0
+                    local[t, j, 1, 0] = 0.0
+                    local[t, j, 1, 1] = cb
+                    local[t, j, 1, 2] = -sb
+                local[t, j, 2, 0] = 0.0
+                local[t, j, 2, 1] = sb
+                local[t, j, 2, 2] = cb
+
+
+@njit(cache=True)
+def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
+    """Forward kinematics of the joints ``rest`` in rows ``a`` to ``b``, from
+    the trunk's world frames ``G[t - a]``."""
+    for t in range(a, b):
+        g = t - a
+        for m in range(rest.shape[0]):
+            j = rest[m]
+            _fk_joint(t, g, j, parents[j], how[j], frame[j], local, offsets, G, positions)
+
+
+#: Rows :func:`pose_rows` takes through its stages at a time (their world
+#: frames, the scratch between the stages, stay in cache).
+CHUNK = 32
 
 
 @njit(cache=True)
@@ -241,7 +511,9 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
         The spine joints below the pelvis (K,), tail joints and neck joints.
     trunk : ndarray of int, shape (M,)
         Increasing joints, each with its parent, holding the legs' parents
-        and the thorax ``thorax``: the first forward kinematics pass.
+        and the thorax ``thorax``: the first forward kinematics pass. The
+        second pass leaves them out (their frames are final after the
+        first), unless the neck or a leg sets one of them.
     thorax : int
     leg_int, leg_top, leg_bones, leg_scal : ndarray
         The legs (:func:`pack_legs`).
@@ -251,54 +523,26 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
         Output: world joint positions (m).
     err : ndarray, shape (T, 4)
         Output: distance from each foot target to the foot reached (m).
+
+    Notes
+    -----
+    The rows go through in blocks of :data:`CHUNK`, each through three
+    stages: :func:`_trunk_rows` (spine, tail, trunk forward kinematics,
+    neck), :func:`_leg_rows` (leg IK) and :func:`_rest_rows` (forward
+    kinematics of the other joints; a leaf's world frame is not formed).
+    The stages index the arrays in place rather than passing views or the
+    arrays to helpers inside their loops: each such reference costs an
+    atomic reference count, which threads sharing the arrays contend for.
     """
     T = plan.shape[0]
-    J = parents.shape[0]
-    K = spine.shape[0]
-    G = np.empty((J, 3, 3))
-    phi = np.empty(leg_bones.shape[2])
-    for t in range(T):
-        row = plan[t]
-        L = local[t]
-        P = positions[t]
-        for j in range(J):
-            for r in range(3):
-                for c in range(3):
-                    L[j, r, c] = 1.0 if r == c else 0.0
-        flex = row[BEND_PITCH]
-        sway0 = row[SWAY]
-        sway1 = row[SWAY + 1]
-        # pelvis: heading plus hind sway, tilted back by half the flexion
-        _yaw_pitch(L[0], row[HEADING] + sway0, row[PITCH] - 0.5 * flex)
-        for k in range(K):
-            yaw = row[BEND_YAW] / K * 1.0
-            if k == 0:
-                yaw = yaw - sway0
-            if k == K - 1:
-                yaw = yaw + sway1
-            _yaw_pitch(L[spine[k]], yaw, flex / K * 1.0)
-        for k in range(tail.shape[0]):
-            _yaw_pitch(L[tail[k]], row[TAIL + 2 * k + 1], row[TAIL + 2 * k])
-        # the trunk's world frames
-        for r in range(3):
-            for c in range(3):
-                G[0, r, c] = L[0, r, c]
-            P[0, r] = row[ROOT + r]
-        for m in range(1, trunk.shape[0]):
-            _fk_joint(trunk[m], parents[trunk[m]], L, offsets, G, P)
-        # neck and head: keep the head level, look into the turn
-        nn = neck.shape[0]
-        if nn:
-            pitch = math.asin(min(max(-G[thorax, 1, 2], -1.0), 1.0))
-            for k in range(nn):
-                _yaw_pitch(L[neck[k]], row[LOOK] / nn * 1.0, -pitch / nn * 1.0)
-        for i in range(leg_int.shape[0]):
-            p = leg_int[i, 2]
-            err[t, i] = _solve_leg(i, G[p], P[p], row[FEET + 3 * i], row[FEET + 3 * i + 1],
-                                   row[FEET + 3 * i + 2], row[FOLD + i], row[TOE + i],
-                                   leg_int, leg_top, leg_bones, leg_scal, phi, L)
-        for j in range(1, J):
-            _fk_joint(j, parents[j], L, offsets, G, P)
+    G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
+    how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
+    for a in range(0, T, CHUNK):
+        b = min(T, a + CHUNK)
+        _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
+                    local, positions, G)
+        _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, local, err)
+        _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 
 
 #: Fewest rows for which :func:`pose_rows_parallel` splits the work over threads.
