@@ -26,7 +26,8 @@ Measures, on this machine and CPU only:
     step -- the compiled kernels loaded from numba's on-disk cache
     (``cached_s``) and, with an empty cache, compiled from scratch
     (``compile_s``, paid once per install or source change) -- then of the
-    first batched step (``batch_*``, the batch's own kernels), and of
+    first batched step of 256 rows (``batch_*``, the threaded kernels), the
+    data-driven horse's set-up and first step (``data_*``), and of
     importing quadsim (``import_s``). The other figures exclude it.
 
 Every figure is the median over repeats of wall-clock time, and also of
@@ -349,22 +350,30 @@ ctl = ProceduralController(load_character({character!r}))
 t1, c1 = time.perf_counter(), time.process_time()
 ctl.step(Command(speed=1.0), pose=True)
 t2, c2 = time.perf_counter(), time.process_time()
-from quadsim.locomotion.batch import BatchController
-herd = BatchController([ctl.character] * 2)
-t3, c3 = time.perf_counter(), time.process_time()
-herd.step([1.0, 1.0], pose=True)
-t4, c4 = time.perf_counter(), time.process_time()
-print(t1 - t0, c1 - c0, t2 - t1, c2 - c1, t4 - t3, c4 - c3)
+t3 = t4 = t5 = t6 = c3 = c4 = c5 = c6 = 0.0
+if {full}:
+    from quadsim.locomotion.batch import BatchController
+    herd = BatchController([ctl.character] * 256)
+    t3, c3 = time.perf_counter(), time.process_time()
+    herd.step([1.0] * 256, pose=True)
+    t4, c4 = time.perf_counter(), time.process_time()
+    from quadsim.horse.controller import HorseDataController
+    t5, c5 = time.perf_counter(), time.process_time()
+    HorseDataController(load_character("horse")).step(Command(speed=3.0))
+    t6, c6 = time.perf_counter(), time.process_time()
+print(t1 - t0, c1 - c0, t2 - t1, c2 - c1, t4 - t3, c4 - c3, t6 - t5, c6 - c5)
 """
 
 
-def bench_warm_up(character: str) -> dict:
+def bench_warm_up(character: str, full: bool = True) -> dict:
     """One-off costs in fresh processes: importing quadsim and building a
-    controller, and the first posed step with numba's cache warm and empty."""
+    controller, and the first posed step with numba's cache warm and empty;
+    with ``full``, also the first threaded batch step and the data-driven
+    horse's first step (0 without)."""
     import subprocess
 
     def fresh(env):
-        out = subprocess.run([sys.executable, "-c", _WARM_UP_CODE.format(character=character)],
+        out = subprocess.run([sys.executable, "-c", _WARM_UP_CODE.format(character=character, full=bool(full))],
                              env=env, capture_output=True, text=True, check=True)
         return [float(x) for x in out.stdout.split()]
 
@@ -380,11 +389,15 @@ def bench_warm_up(character: str) -> dict:
             "compile_s": compiled[2], "compile_cpu_s": compiled[3],
             "batch_cached_s": cached[4], "batch_cached_cpu_s": cached[5],
             "batch_compile_s": compiled[4], "batch_compile_cpu_s": compiled[5],
+            "data_cached_s": cached[6], "data_cached_cpu_s": cached[7],
+            "data_compile_s": compiled[6], "data_compile_cpu_s": compiled[7],
             "note": "first posed ProceduralController.step of a fresh process (loads or "
-                    "compiles the CPG, feet and posing kernels), then the first "
-                    "BatchController.step (adds the body kernel), numba's on-disk cache "
-                    "warm (cached) and empty (compile); import_s: importing quadsim and "
-                    "building the controller (with the character's reach measured)"}
+                    "compiles the plan and posing kernels), then the first "
+                    "BatchController.step of 256 rows (adds the threaded kernels), then "
+                    "the data-driven horse's set-up and first step (its clip database "
+                    "and kernels), numba's on-disk cache warm (cached) and empty "
+                    "(compile); import_s: importing quadsim and building the controller "
+                    "(with the character's reach measured)"}
 
 
 # ------------------------------------------------------------------ (d) export
@@ -415,7 +428,7 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
     if info["load_average_1_5_15_min"]:
         log(f"load average {info['load_average_1_5_15_min']} (figures are wall-clock, "
             "CPU time in brackets: run on an idle machine)")
-    step_frames, step_repeats = (60, 2) if quick else (300, 3)
+    step_frames, step_repeats = (60, 2) if quick else (600, 5)
     sim_repeats = 3
     result = {"machine": info, "quick": quick,
               "started_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
@@ -423,10 +436,12 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
     t_all = time.perf_counter()
     warnings.simplefilter("ignore")  # clamp warnings are not what is measured
     log("(w) one-off warm-up of a fresh process (compiled kernels), seconds")
-    w = result["warm_up"] = bench_warm_up(characters[0])
+    w = result["warm_up"] = bench_warm_up(characters[0], full=not quick)
     log(f"    import and set-up {w['import_s']:.2f} s; first posed step {w['cached_s']:.2f} s "
         f"(numba cache warm), {w['compile_s']:.2f} s (cache empty: compiling); first "
-        f"batch step {w['batch_cached_s']:.2f} s / {w['batch_compile_s']:.2f} s")
+        f"batch step (256, threaded) {w['batch_cached_s']:.2f} s / "
+        f"{w['batch_compile_s']:.2f} s; data-driven horse {w['data_cached_s']:.2f} s / "
+        f"{w['data_compile_s']:.2f} s")
     log("(a) interactive step, frames per second (median of repeats), 60 fps = real time")
     for c in characters:
         r = bench_step(c, step_frames, step_repeats)
