@@ -14,7 +14,9 @@ Measures, on this machine and CPU only:
     N = 1, 10, 100, 1000 (and 10000 with ``--max-n 10000``) by
     :class:`~quadsim.locomotion.batch.BatchController`, with the memory a step
     takes; the result records the method (``method``) and, for small N, the
-    Python loop over lone controllers for comparison;
+    Python loop over lone controllers for comparison; and N = 1000 again with
+    another process keeping a core busy, on every thread and on one
+    (``many_busy_core``; not in ``--quick``);
 (a') the data-driven horse's step, when ``quadsim.horse`` provides
     ``HorseDataController`` (``step["horse_data"]``), and (b') its offline
     60 s clip (``simulate["horse_data"]``): the shipped tour
@@ -94,7 +96,17 @@ def machine_info() -> dict:
             "machine": platform.machine(), "system": platform.platform(),
             "python": platform.python_version(), "numpy": np.__version__,
             "numba": _version("numba"),
+            "numba_threads": _numba_threads(),
+            "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY"),
             "quadsim": getattr(quadsim, "__version__", "?")}
+
+
+def _numba_threads() -> int | None:
+    try:
+        from numba import get_num_threads
+    except ImportError:
+        return None
+    return int(get_num_threads())
 
 
 def _version(module: str) -> str | None:
@@ -339,6 +351,44 @@ def bench_many(character: str, ns, frames_for, repeats_for, loop_up_to: int = 10
     return out
 
 
+def bench_busy_core(character: str, n: int = 1000, frames: int = 30, repeats: int = 5) -> dict:
+    """N characters stepped together while another process keeps one core busy:
+    character-frames per second on every thread and on one thread (the machine
+    shared with another job). Threads wait passively when ``OMP_WAIT_POLICY`` is
+    ``PASSIVE`` (set by ``quadsim bench`` and ``python -m benchmarks`` unless given)."""
+    import subprocess
+
+    import numba
+
+    from quadsim.locomotion.batch import BatchController
+
+    ch = _load(character)
+    herd = BatchController([ch] * n, seeds=np.arange(n))
+    speeds, turns = _herd_commands(herd.max_speed[0], n, np.random.default_rng(0))
+    for _ in range(30):
+        herd.step(speeds, turns, pose=True)
+    threads = numba.get_num_threads()
+    busy = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    out = {"character": character, "n": n, "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY")}
+    try:
+        time.sleep(0.5)
+        for label, k in (("all_threads", threads), ("one_thread", 1)):
+            numba.set_num_threads(k)
+            rates = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                for _ in range(frames):
+                    herd.step(speeds, turns, pose=True)
+                rates.append(n * frames / (time.perf_counter() - t0))
+            out[label] = {"threads": k, "character_frames_per_s": _median(rates),
+                          "repeats": [round(x, 1) for x in rates]}
+    finally:
+        numba.set_num_threads(threads)
+        busy.kill()
+        busy.wait()
+    return out
+
+
 # ------------------------------------------------------------------ (w) warm-up
 _WARM_UP_CODE = """
 import time
@@ -497,6 +547,13 @@ def run(quick: bool = False, max_n: int = 1000, characters=CHARACTERS, log=print
             f"peak {r['peak_step_bytes'] / 1e6:.0f} MB a step)"
             + (f"; Python loop {loop:.0f}/s" if loop else ""))
     log(f"    method: {many['method']}")
+    if not quick and 1000 in ns:
+        b = result["many_busy_core"] = bench_busy_core(characters[0])
+        log(f"    N =  1000 with another process busy on a core: "
+            f"{b['all_threads']['character_frames_per_s']:9.0f}/s on "
+            f"{b['all_threads']['threads']} threads, "
+            f"{b['one_thread']['character_frames_per_s']:9.0f}/s on one "
+            f"(OMP_WAIT_POLICY={b['omp_wait_policy']})")
     log(f"(d) export of the {clip.n_frames}-frame clip ({characters[0]}), seconds")
     result["export"] = bench_export(clip, 1 if quick else 3)
     for k in ("bvh", "glb"):
@@ -537,6 +594,7 @@ def add_arguments(ap: argparse.ArgumentParser) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")   # as the quadsim command does
     ap = argparse.ArgumentParser(prog="python -m benchmarks",
                                  description="Benchmark quadsim: step, simulate, many "
                                  "characters, export.")
