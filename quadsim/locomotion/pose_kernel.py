@@ -249,13 +249,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     vf = cf - qf
     r_true = math.sqrt(vd * vd + vf * vf)
     r = min(max(r_true, abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
-    if r_true > 0.0:  # (cos, sin) of gam = atan2(vf, vd)
-        cg = vd / r_true
-        sg = vf / r_true
-    else:
-        gam = math.atan2(vf, vd)
-        cg = math.cos(gam)
-        sg = math.sin(gam)
+    cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
     cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
         cb = cos_delta
@@ -268,15 +262,17 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     s0 = sg * cb + cg * sb
     x = qd + r * cg - (qd + l1 * c0)
     y = qf + r * sg - (qf + l1 * s0)
-    h = math.sqrt(x * x + y * y)
-    if h > 0.0:
-        c1 = x / h
-        s1 = y / h
-    else:
-        lower = math.atan2(y, x)
-        c1 = math.cos(lower)
-        s1 = math.sin(lower)
+    c1, s1 = _direction(x, y, math.sqrt(x * x + y * y))
     return c0, s0, c1, s1, x, y, abs(r_true - r)
+
+
+@njit(cache=True)
+def _direction(x, y, h):
+    """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
+    if h > 0.0:
+        return x / h, y / h
+    a = math.atan2(y, x)
+    return math.cos(a), math.sin(a)
 
 
 @njit(cache=True)
