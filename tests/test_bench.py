@@ -23,3 +23,19 @@ def test_bench_quick_writes_json(tmp_path, capsys):
 def test_bench_rejects_a_bad_size(capsys):
     assert main(["bench", "--max-n", "0"]) == 2
     assert "--max-n" in capsys.readouterr().err
+
+
+def test_preview_frame_benchmark_times_both_modes_and_a_gait_change():
+    """``python -m benchmarks.preview_frame`` drives a real off-screen preview."""
+    import math
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout's benchmarks/
+    from benchmarks.preview_frame import measure
+
+    for character, mode in (("leopard", None), ("horse", "data")):
+        r = measure(character, size="320x240", frames=4, repeats=1, mode=mode)
+        for key in ("frame_ms", "p95_ms", "update_ms", "render_ms", "gait_change_max_ms"):
+            assert math.isfinite(r[key]) and r[key] > 0, (mode, key, r[key])
+        assert r["update_ms"] + r["render_ms"] <= r["frame_ms"] * 1.5 + 1.0
