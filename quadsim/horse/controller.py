@@ -92,7 +92,16 @@ from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from . import turning
 from .database import ClipDatabase, load_default_database
-from .place_kernel import N_SCALARS, SCALARS, place_row, sample_row, slerp_into, stance_row
+from .place_kernel import (
+    N_SCALARS,
+    S_PITCH,
+    S_SAG,
+    SCALARS,
+    place_row,
+    sample_row,
+    slerp_into,
+    stance_row,
+)
 from .root import FLIGHT, clip_stance_cycles
 from .slope import Ground
 from .speed import HOYT, expand
@@ -270,12 +279,12 @@ class HorseDataController:
     @property
     def pitch(self) -> float:
         """Body pitch (rad), nose up: follows the ground between the hips and the shoulders."""
-        return float(self._scal[SCALARS.index("pitch")])
+        return float(self._scal[S_PITCH])
 
     @property
     def sag(self) -> float:
         """How far the body is lowered for its planted legs (m)."""
-        return float(self._scal[SCALARS.index("sag")])
+        return float(self._scal[S_SAG])
 
     @property
     def speed(self) -> float:
@@ -327,21 +336,16 @@ class HorseDataController:
 
     def _stance_time(self, clip) -> float:
         """Mean contact time of a clip's feet (s)."""
-        key = ("tc", clip.name)
-        if key not in self._stance:
-            d = np.concatenate([(s[:, 1] - s[:, 0]) % 1.0 for s in self._stance_of(clip)])
-            self._stance[key] = float(max(d.mean(), 1e-3) * clip.period)
-        return self._stance[key]
-
-    def _stance_of(self, clip):
-        if clip.name not in self._stance:
-            self._stance[clip.name] = clip_stance_cycles(clip)
-        return self._stance[clip.name]
+        tc = self._stance.get(clip)
+        if tc is None:
+            d = np.concatenate([(s[:, 1] - s[:, 0]) % 1.0 for s in clip_stance_cycles(clip)])
+            tc = self._stance[clip] = float(max(d.mean(), 1e-3) * clip.period)
+        return tc
 
     def _pack(self, clip) -> _Packed:
         pk = self._packed.get(clip)
         if pk is None:
-            pk = self._packed[clip] = _Packed(clip, self._stance_of(clip))
+            pk = self._packed[clip] = _Packed(clip, clip_stance_cycles(clip))
         return pk
 
     def _steady_local(self, clip, phase: float):

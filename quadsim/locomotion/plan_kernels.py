@@ -203,12 +203,7 @@ def body_rows(stance, u, duty, freq, v, bend, theta_s, keys, key_heading, foot_o
         for i in range(4):
             g = 1 if i < 2 else 0
             c, sn = (c1, s1) if g else (c0, s0)
-            ox, oy, oz = foot_offset[n, i, 0], foot_offset[n, i, 1], foot_offset[n, i, 2]
-            mx = c * ox + sn * oz + keys[n, g, 0]
-            my = oy + keys[n, g, 1]
-            mz = -sn * ox + c * oz + keys[n, g, 2]
-            along = (feet[n, i, 0] - mx) * sn + (feet[n, i, 1] - my) * 0.0 \
-                + (feet[n, i, 2] - mz) * c
+            along = _ahead_of_mid(keys, foot_offset, feet, n, i, c0, s0, c1, s1)
             need[i] = 0.0
             if stance[n, i]:  # np.interp(x, sweep_cols[n, i], drops)
                 x = abs(along) / reach_margin
@@ -370,14 +365,23 @@ def _room_row(keys, kh, offset, planted, base, room, n):
     c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
     c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
     for i in range(4):
-        g = 1 if i < 2 else 0
-        c, sn = (c1, s1) if g else (c0, s0)
-        ox, oy, oz = offset[n, i, 0], offset[n, i, 1], offset[n, i, 2]
-        mx = c * ox + sn * oz + keys[n, g, 0]
-        my = oy + keys[n, g, 1]
-        mz = -sn * ox + c * oz + keys[n, g, 2]
-        room[i] = base + ((planted[n, i, 0] - mx) * sn + (planted[n, i, 1] - my) * 0.0
-                          + (planted[n, i, 2] - mz) * c)
+        room[i] = base + _ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
+
+
+@njit(cache=True)
+def _ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
+    """How far (m) ``points[n, i]`` lies ahead of foot ``i``'s mid-stance point
+    (its girdle's key plus the foot's offset turned to the girdle's heading),
+    along the girdle's forward vector; ``c0, s0`` / ``c1, s1`` are the cosine
+    and sine of the hind / fore girdle's heading."""
+    g = 1 if i < 2 else 0
+    c, sn = (c1, s1) if g else (c0, s0)
+    ox, oy, oz = offset[n, i, 0], offset[n, i, 1], offset[n, i, 2]
+    mx = c * ox + sn * oz + keys[n, g, 0]
+    my = oy + keys[n, g, 1]
+    mz = -sn * ox + c * oz + keys[n, g, 2]
+    return (points[n, i, 0] - mx) * sn + (points[n, i, 1] - my) * 0.0 \
+        + (points[n, i, 2] - mz) * c
 
 
 @njit(cache=True)
