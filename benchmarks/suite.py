@@ -135,7 +135,7 @@ def _load(character: str):
 
 
 def _step_command(controller):
-    from quadsim.locomotion.commands import Command
+    from quadsim.commands import Command
 
     return Command(speed=STEP_SPEED_FRACTION * controller.max_speed, turn_rate=STEP_TURN_RATE)
 
@@ -180,7 +180,7 @@ def bench_step(character: str, frames: int, repeats: int) -> dict:
 # ------------------------------------------------------------------ (b) simulate
 def _clip_script(character):
     """A 60 s tour: start, trot, run, turn both ways, slow down."""
-    from quadsim.locomotion.commands import Command, Script
+    from quadsim.commands import Command, Script
     from quadsim.locomotion.gaits import max_speed
 
     top = max_speed(character)
@@ -214,7 +214,7 @@ def bench_horse_data(frames: int, repeats: int) -> dict | None:
         from quadsim.horse.controller import HorseDataController
     except ImportError:
         return None
-    from quadsim.locomotion.commands import Command
+    from quadsim.commands import Command
 
     ch = _load("horse")
     base = HorseDataController(ch)
@@ -240,7 +240,7 @@ def _data_tour_script():
     import dataclasses
 
     from quadsim.config import load_config
-    from quadsim.locomotion.commands import Script
+    from quadsim.commands import Script
 
     s = load_config(ROOT / "configs" / "horse_data.toml").commands
     half = CLIP_SECONDS / 2
@@ -304,7 +304,7 @@ def bench_many(character: str, ns, frames_for, repeats_for, loop_up_to: int = 10
     import tracemalloc
 
     from quadsim.locomotion.batch import BatchController
-    from quadsim.locomotion.commands import Command
+    from quadsim.commands import Command
     from quadsim.locomotion.controller import ProceduralController
 
     ch = _load(character)
@@ -394,7 +394,7 @@ _WARM_UP_CODE = """
 import time
 t0, c0 = time.perf_counter(), time.process_time()
 from quadsim.locomotion.controller import ProceduralController
-from quadsim.locomotion.commands import Command
+from quadsim.commands import Command
 from quadsim.skeleton.character import load_character
 ctl = ProceduralController(load_character({character!r}))
 t1, c1 = time.perf_counter(), time.process_time()

@@ -53,7 +53,7 @@ from pathlib import Path
 
 from quadsim.errors import InputError
 from quadsim.frames import KMH, MPH
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 
 __all__ = [
     "FPS_RANGE", "MAX_DURATION", "MAX_TURN_RATE_DEG_S", "MODES", "UNITS",

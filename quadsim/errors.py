@@ -8,3 +8,11 @@ says what is allowed. The CLI prints it and exits with status 2.
 
 class InputError(ValueError):
     """Bad user input; the message names the file or field and the fix."""
+
+
+class QuadsimClampWarning(UserWarning):
+    """A command was beyond what the character can do and was clamped.
+
+    The message names the value, the limit and what was used instead. Both
+    controllers raise it once per distinct clamp.
+    """

@@ -15,7 +15,7 @@ import pytest
 
 from quadsim.errors import InputError
 from quadsim.locomotion.batch import GAIT_IDS, BatchController
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 from quadsim.locomotion.controller import ProceduralController
 from quadsim.locomotion.gaits import max_speed
 from quadsim.locomotion.posing import PLAN_FIELDS

@@ -9,7 +9,7 @@ import pytest
 from quadsim.config import RunConfig, load_config, with_overrides
 from quadsim.errors import InputError
 from quadsim.frames import KMH, MPH
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 from quadsim.skeleton.character import characters_dir, load_character
 
 REPO = Path(__file__).resolve().parents[1]

@@ -22,7 +22,7 @@ from quadsim.horse.controller import TURN_PER_STANCE, HorseDataController, simul
 from quadsim.horse.database import looped
 from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, measure_contact_time
 from quadsim.io.bvh import read_bvh
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 
 REPO = Path(__file__).resolve().parents[1]
 FPS = 60

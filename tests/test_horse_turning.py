@@ -15,7 +15,7 @@ from quadsim.config import parse_config
 from quadsim.errors import InputError
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.slope import Ground
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 from quadsim.skeleton.motion import Motion
 
 FPS = 60

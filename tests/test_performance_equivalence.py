@@ -13,7 +13,7 @@ import pytest
 
 from quadsim.kinematics.ik import leg_geometry, solve_leg, stack_leg_geometries
 from quadsim.kinematics.rotations import quaternions_from_matrices
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 from quadsim.locomotion.controller import ProceduralController, simulate
 from quadsim.locomotion.cpg import cpg_step
 from quadsim.locomotion.gaits import max_speed

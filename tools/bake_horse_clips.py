@@ -45,7 +45,7 @@ import numpy as np
 from quadsim.analysis.metrics import foot_contacts
 from quadsim.horse.database import cut_cycles, looped, sample_motion
 from quadsim.io.bvh import write_bvh
-from quadsim.locomotion.commands import Command
+from quadsim.commands import Command
 from quadsim.locomotion.controller import simulate
 from quadsim.skeleton.character import load_character
 from quadsim.skeleton.motion import Motion

@@ -1,7 +1,7 @@
 """The data-driven horse controller: clips played by generic time, any speed, any moment.
 
 :class:`HorseDataController` steps once per frame on a
-:class:`~quadsim.locomotion.commands.Command`:
+:class:`~quadsim.commands.Command`:
 
 * **Gait by speed.** Unless the command names a gait, the gait is chosen from
   the automatic gaits of the clip database (walk, trot, canter, gallop; amble
@@ -84,10 +84,10 @@ import warnings
 
 import numpy as np
 
-from ..analysis.metrics import foot_contacts
+from ..skeleton.contacts import foot_contacts
 from ..errors import InputError
-from ..locomotion.commands import Command, Script
-from ..locomotion.controller import QuadsimClampWarning
+from ..commands import Command, Script
+from ..errors import QuadsimClampWarning
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from . import turning

@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..analysis.metrics import foot_contacts, stance_intervals
+from ..skeleton.contacts import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..kinematics.rotations import quaternion_multiply, quaternion_slerp
 from ..skeleton.character import Character

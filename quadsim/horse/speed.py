@@ -88,7 +88,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..analysis.metrics import foot_contacts, stance_intervals
+from ..skeleton.contacts import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion

@@ -4,7 +4,7 @@ Knows nothing of files or screens.
 """
 
 from quadsim.locomotion.batch import BatchController
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
 from quadsim.locomotion.controller import (
     ControllerSettings,
     ProceduralController,

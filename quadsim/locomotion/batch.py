@@ -36,7 +36,7 @@ import numpy as np
 
 from quadsim.errors import InputError
 from quadsim.frames import Y
-from quadsim.locomotion.commands import Command
+from quadsim.commands import Command
 from quadsim.locomotion.controller import (
     GAIT_IDS,
     ControllerSettings,

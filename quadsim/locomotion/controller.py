@@ -2,7 +2,7 @@
 
 One :class:`ProceduralController` drives one character. Each call of
 :meth:`ProceduralController.step` advances it by ``dt`` under a
-:class:`~quadsim.locomotion.commands.Command`:
+:class:`~quadsim.commands.Command`:
 
 1. speed and turn rate move towards the command (bounded acceleration);
 2. the gait scheduler picks the gait (hysteresis) and blends transitions;
@@ -30,7 +30,7 @@ and a whole clip alike. The kernel reports its clamps as flags and the
 warnings are raised here. Tests hold the batch to the same motion to 1e-9.
 
 Bad commands: a negative or non-finite speed or turn rate raises
-``ValueError`` (:class:`~quadsim.locomotion.commands.Command` checks it); an
+``ValueError`` (:class:`~quadsim.commands.Command` checks it); an
 unknown gait raises :class:`~quadsim.errors.InputError`; a speed above the
 character's fastest gait, or a turn rate above its maximum, is clamped with
 a ``QuadsimClampWarning`` that names the value and the limit.
@@ -49,7 +49,8 @@ import numpy as np
 from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import quaternions_from_matrices
-from quadsim.locomotion.commands import Command, Script
+from quadsim.commands import Command, Script
+from quadsim.errors import QuadsimClampWarning
 from quadsim.locomotion.cpg import TWO_PI, CPGParams
 from quadsim.locomotion.gaits import (
     GAIT_NAMES,
@@ -114,10 +115,6 @@ def _params_of(row) -> GaitParams:
     return GaitParams(float(row[_pk.P_DUTY]), np.array(row[_pk.P_PH0:_pk.P_PH0 + 4]),
                       float(row[_pk.P_COEF]), float(row[_pk.P_MINV]), float(row[_pk.P_SWING]),
                       float(row[_pk.P_DROP]), float(row[_pk.P_BOUND]), float(row[_pk.P_SPAMP]))
-
-
-class QuadsimClampWarning(UserWarning):
-    """A command value was outside what the character can do and was clamped."""
 
 
 @dataclass(frozen=True)

@@ -261,8 +261,8 @@ class Preview:
         return len(self._rec)
 
     def command(self):
-        """The :class:`~quadsim.locomotion.commands.Command` the next step will get."""
-        from quadsim.locomotion.commands import Command
+        """The :class:`~quadsim.commands.Command` the next step will get."""
+        from quadsim.commands import Command
 
         if not self.manual and self.script is not None:
             c = self.script.command_at(self.time)

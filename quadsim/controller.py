@@ -1,0 +1,159 @@
+"""The one controller interface both modes implement, and the frame a step returns.
+
+A controller turns commands into motion one fixed step at a time::
+
+    frame = controller.step(command, dt)
+
+:class:`Frame` is what a step gives back: the posed skeleton at the new
+time, the gait being played, which feet are down, and a few named
+per-frame channels. :class:`Controller` is the protocol: the procedural
+controller (:class:`quadsim.locomotion.ProceduralController`) and the
+data-driven horse (:class:`quadsim.horse.HorseDataController`) implement it,
+and everything above the engines -- :func:`quadsim.simulate`, the CLI, the
+live preview -- uses only what is declared here.
+
+This module sits at the bottom of the package (it needs only the skeleton
+layer), so both engines can import it without importing each other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Mapping, Protocol, runtime_checkable
+
+import numpy as np
+
+from quadsim.skeleton.skeleton import Skeleton
+
+__all__ = ["Controller", "Frame"]
+
+
+def _frozen(a, dtype=float) -> np.ndarray:
+    out = np.array(a, dtype=dtype)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """One controller step: the posed skeleton and what the controller played.
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+        The skeleton posed.
+    time : float
+        Time of this frame since the controller started (s).
+    root : ndarray, shape (3,)
+        World position of the root joint (m).
+    local_rotations : ndarray, shape (J, 3, 3)
+        Joint rotations relative to the parent joint; the root's is its world
+        orientation.
+    positions : ndarray, shape (J, 3)
+        World position of every joint (m).
+    heading : float
+        The body's heading (rad about +Y, 0 faces +Z, positive towards +X).
+    gait : str
+        What is being played: a gait name, a transition (``"walk->trot"``),
+        ``"stand"`` or ``"leap"``.
+    contacts : ndarray of bool, shape (4,)
+        Feet the controller holds on the ground, LF, RF, LH, RH (its plan;
+        measure realised contacts from positions with :mod:`quadsim.analysis`).
+    speed : float
+        Forward speed being played (m/s).
+    extras : mapping of str to ndarray
+        Further named per-frame channels, kept in a recorded
+        :class:`~quadsim.skeleton.motion.Motion`'s ``extras``: the procedural
+        mode gives ``phase`` (4,) CPG stride fractions, ``spine`` (rad),
+        ``duty``; the data mode ``pitch`` (rad) and ``ground`` (4,) the
+        ground height under each foot (m).
+
+    All arrays are read-only copies.
+    """
+
+    skeleton: Skeleton
+    time: float
+    root: np.ndarray
+    local_rotations: np.ndarray
+    positions: np.ndarray
+    heading: float
+    gait: str
+    contacts: np.ndarray
+    speed: float
+    extras: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        J = self.skeleton.n_joints
+        set_ = object.__setattr__
+        set_(self, "time", float(self.time))
+        set_(self, "heading", float(self.heading))
+        set_(self, "speed", float(self.speed))
+        set_(self, "gait", str(self.gait))
+        for name, shape, dtype in (("root", (3,), float),
+                                   ("local_rotations", (J, 3, 3), float),
+                                   ("positions", (J, 3), float),
+                                   ("contacts", (4,), bool)):
+            a = _frozen(getattr(self, name), dtype)
+            if a.shape != shape:
+                raise ValueError(f"Frame `{name}` has shape {a.shape}, expected {shape}")
+            set_(self, name, a)
+        set_(self, "extras", MappingProxyType({k: _frozen(v) for k, v in self.extras.items()}))
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What every controller offers, whatever its mode.
+
+    Attributes
+    ----------
+    mode : str
+        ``"procedural"`` or ``"data"``.
+    character : Character
+        The character animated.
+    dt : float
+        The default step (s).
+    time : float
+        Seconds stepped so far.
+    gait_order : list of str
+        The gaits a user may hold, in a stable order (the preview's number keys).
+    auto_gaits : list of str
+        The gaits chosen by speed, slowest first.
+    max_speed : float
+        Fastest speed (m/s) a command is played at; faster ones are clamped
+        with a :class:`~quadsim.errors.QuadsimClampWarning`.
+    """
+
+    mode: str
+    character: object
+    dt: float
+    time: float
+    gait_order: list
+    auto_gaits: list
+    max_speed: float
+
+    @property
+    def ground(self):
+        """The ground under the character: ``None`` for the flat plane ``y = 0``,
+        else an object with ``height(xz) -> y``."""
+
+    @property
+    def speed(self) -> float:
+        """The speed being played (m/s)."""
+
+    @property
+    def heading(self) -> float:
+        """The body's heading (rad)."""
+
+    @property
+    def gait(self) -> str:
+        """The last frame's gait label."""
+
+    def preferred_speed(self, gait: str) -> float:
+        """The speed (m/s) a gait is played at when none is asked for."""
+
+    def gait_speed_cap(self, gait: str) -> float:
+        """The fastest speed (m/s) a held gait is played at."""
+
+    def step(self, command, dt: float | None = None) -> Frame:
+        """Advance one step of ``dt`` seconds (default :attr:`dt`) under ``command``."""
