@@ -52,6 +52,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ..kinematics.chains import fk_row, mul_into, mul_tn_into, two_bone_row
 from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
 
 #: Columns of the ``scal`` array of :func:`place_row` (state first, then constants).
@@ -146,99 +147,6 @@ def stance_row(on_off, count, frames, phase, out):
             st = _in_contact(on_off, count, leg, k / frames) and \
                 _in_contact(on_off, count, leg, (k + 1) / frames)
         out[leg] = st
-
-
-@njit(cache=True)
-def _axis_angle(kx, ky, kz, ang, R):
-    """Rodrigues' rotation about the unit axis ``k`` by ``ang`` into ``R`` (3, 3)."""
-    s, c = math.sin(ang), 1.0 - math.cos(ang)
-    # R = I + s K + c K K, K the cross-product matrix of k
-    R[0, 0] = 1.0 - c * (ky * ky + kz * kz)
-    R[1, 1] = 1.0 - c * (kx * kx + kz * kz)
-    R[2, 2] = 1.0 - c * (kx * kx + ky * ky)
-    R[0, 1] = -s * kz + c * kx * ky
-    R[1, 0] = s * kz + c * kx * ky
-    R[0, 2] = s * ky + c * kx * kz
-    R[2, 0] = -s * ky + c * kx * kz
-    R[1, 2] = -s * kx + c * ky * kz
-    R[2, 1] = s * kx + c * ky * kz
-
-
-@njit(cache=True)
-def _mul(A, B, out):
-    """``out = A @ B`` for 3 x 3 matrices (``out`` distinct from both)."""
-    for r in range(3):
-        for c in range(3):
-            out[r, c] = A[r, 0] * B[0, c] + A[r, 1] * B[1, c] + A[r, 2] * B[2, c]
-
-
-@njit(cache=True)
-def _mul_tn(A, B, out):
-    """``out = A.T @ B`` for 3 x 3 matrices."""
-    for r in range(3):
-        for c in range(3):
-            out[r, c] = A[0, r] * B[0, c] + A[1, r] * B[1, c] + A[2, r] * B[2, c]
-
-
-@njit(cache=True)
-def two_bone_row(A, B, F, W_parent, W_top, W_mid, target, L_top, L_mid, work):
-    """One leg's :func:`~quadsim.horse.legs.two_bone`: local rotations (3, 3) of the
-    pair's top and middle joints putting the foot ``F`` on ``target``.
-
-    ``A``, ``B``, ``F``, ``target`` (3,) are world positions (m); ``W_*`` (3, 3)
-    world rotations; ``work`` (4, 3, 3) scratch.
-    """
-    ux, uy, uz = A[0] - B[0], A[1] - B[1], A[2] - B[2]
-    wx, wy, wz = F[0] - B[0], F[1] - B[1], F[2] - B[2]
-    l1 = math.sqrt(ux * ux + uy * uy + uz * uz)
-    l2 = math.sqrt(wx * wx + wy * wy + wz * wz)
-    tx, ty, tz = target[0] - A[0], target[1] - A[1], target[2] - A[2]
-    d = min(max(math.sqrt(tx * tx + ty * ty + tz * tz), abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
-    nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
-    nn = math.sqrt(nx * nx + ny * ny + nz * nz)
-    if nn > 1e-9:
-        nx, ny, nz = nx / nn, ny / nn, nz / nn
-    else:
-        nx, ny, nz = 1.0, 0.0, 0.0
-    beta0 = math.acos(min(max((ux * wx + uy * wy + uz * wz) / (l1 * l2), -1.0), 1.0))
-    beta1 = math.acos(min(max((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2), -1.0), 1.0))
-    Rm, Rs, Wt, T = work[0], work[1], work[2], work[3]
-    _axis_angle(nx, ny, nz, beta1 - beta0, Rm)
-    ax_ = Rm[0, 0] * wx + Rm[0, 1] * wy + Rm[0, 2] * wz + B[0] - A[0]
-    ay_ = Rm[1, 0] * wx + Rm[1, 1] * wy + Rm[1, 2] * wz + B[1] - A[1]
-    az_ = Rm[2, 0] * wx + Rm[2, 1] * wy + Rm[2, 2] * wz + B[2] - A[2]
-    na = math.sqrt(ax_ * ax_ + ay_ * ay_ + az_ * az_)
-    ax_, ay_, az_ = ax_ / na, ay_ / na, az_ / na
-    nb = max(math.sqrt(tx * tx + ty * ty + tz * tz), 1e-12)
-    bx, by, bz = tx / nb, ty / nb, tz / nb
-    cx, cy, cz = ay_ * bz - az_ * by, az_ * bx - ax_ * bz, ax_ * by - ay_ * bx
-    s = math.sqrt(cx * cx + cy * cy + cz * cz)
-    ang = math.atan2(s, ax_ * bx + ay_ * by + az_ * bz)
-    if s > 1e-12:
-        cx, cy, cz = cx / s, cy / s, cz / s
-    else:
-        cx, cy, cz = nx, ny, nz
-    _axis_angle(cx, cy, cz, ang, Rs)
-    _mul(Rs, W_top, Wt)                 # the top joint's new world rotation
-    _mul_tn(W_parent, Wt, L_top)
-    _mul(Rm, W_mid, T)
-    _mul(Rs, T, work[0])                # the middle joint's new world rotation (Rm no longer used)
-    _mul_tn(Wt, work[0], L_mid)
-
-
-@njit(cache=True)
-def fk_row(parents, offsets, L, root, G, P):
-    """World rotations ``G`` (J, 3, 3) and positions ``P`` (J, 3) of one pose."""
-    for r in range(3):
-        for c in range(3):
-            G[0, r, c] = L[0, r, c]
-        P[0, r] = root[r]
-    for j in range(1, parents.shape[0]):
-        p = parents[j]
-        _mul(G[p], L[j], G[j])
-        for r in range(3):
-            P[j, r] = P[p, r] + G[p, r, 0] * offsets[j, 0] + G[p, r, 1] * offsets[j, 1] \
-                + G[p, r, 2] * offsets[j, 2]
 
 
 @njit(cache=True)
@@ -381,7 +289,7 @@ def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lea
     R[2, 0] = -sy
     R[2, 1] = -cy * sth
     R[2, 2] = cy * cth
-    _mul(R, out_L[0], M[1])
+    mul_into(R, out_L[0], M[1])
     out_L[0, :, :] = M[1]
     # ---- the lead into the pose: chain joint k's world rotation becomes A_k W_k,
     #      A_k = R_y(yaw_k) (Y_h R_x(-pitch_k) Y_h^T); L_k' = Wp^T A_{k-1}^T A_k Wp L_k
@@ -390,12 +298,12 @@ def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lea
     _lead_matrix(body[0, 0], body[0, 1], sy, cy, Ap)
     for k in range(1, n_chain):
         j = chain[k]
-        _mul(Wp, out_L[j], Wn)                 # the joint's world rotation before the lead
+        mul_into(Wp, out_L[j], Wn)                 # the joint's world rotation before the lead
         _lead_matrix(body[k, 0], body[k, 1], sy, cy, An)
-        _mul_tn(Ap, An, T1)                    # A_{k-1}^T A_k
-        _mul(T1, Wp, T2)
-        _mul_tn(Wp, T2, T1)                    # Wp^T A_{k-1}^T A_k Wp
-        _mul(T1, out_L[j], T2)
+        mul_tn_into(Ap, An, T1)                    # A_{k-1}^T A_k
+        mul_into(T1, Wp, T2)
+        mul_tn_into(Wp, T2, T1)                    # Wp^T A_{k-1}^T A_k Wp
+        mul_into(T1, out_L[j], T2)
         out_L[j, :, :] = T2
         Wp[:, :] = Wn
         Ap[:, :] = An

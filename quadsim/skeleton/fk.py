@@ -7,6 +7,7 @@ import weakref
 import numpy as np
 from numba import njit
 
+from quadsim.kinematics.chains import fk_joint
 from quadsim.skeleton.skeleton import Skeleton
 
 
@@ -65,13 +66,7 @@ def _fk_frames(sel, up, off, L, root, G, P):
                 G[b, 0, r, c] = L[b, sel[0], r, c]
             P[b, 0, r] = root[b, r]
         for m in range(1, sel.shape[0]):
-            p = up[m]
-            Lj = L[b, sel[m]]
-            for r in range(3):
-                g0, g1, g2 = G[b, p, r, 0], G[b, p, r, 1], G[b, p, r, 2]
-                for c in range(3):
-                    G[b, m, r, c] = g0 * Lj[0, c] + g1 * Lj[1, c] + g2 * Lj[2, c]
-                P[b, m, r] = P[b, p, r] + g0 * off[m, 0] + g1 * off[m, 1] + g2 * off[m, 2]
+            fk_joint(up[m], m, off[m], L[b, sel[m]], G[b], P[b])
 
 
 #: per skeleton: its forward kinematics plans, by joint subset
