@@ -2,10 +2,12 @@
 
 ::
 
-    quadsim run CONFIG [--out FILE.bvh|.glb|.npz|.csv] [--seconds S] [--fps N] [--speed M_PER_S]
-                       [--gait NAME] [--turn-rate DEG_PER_S] [--units m|cm]
+    quadsim run CONFIG|CHARACTER [--out FILE.bvh|.glb|.npz|.csv] [--mode procedural|data]
+                       [--seconds S] [--fps N] [--speed M_PER_S] [--gait NAME]
+                       [--turn-rate DEG_PER_S] [--units m|cm]
+    quadsim --version
     quadsim characters
-    quadsim validate CONFIG
+    quadsim validate CONFIG|CHARACTER
     quadsim metrics FILE.bvh [--json] [--start S] [--units m|cm]
     quadsim diagram CONFIG|FILE.bvh [--out FILE.png|.svg|.pdf] [--seconds S]
     quadsim preview CONFIG|CHARACTER [--mode procedural|data] [--size WxH]
@@ -31,6 +33,8 @@ import sys
 import warnings
 from pathlib import Path
 
+from quadsim import __version__
+from quadsim.api import DEFAULT_SECONDS
 from quadsim.errors import InputError
 
 PROG = "quadsim"
@@ -47,87 +51,51 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{message} (see `{self.prog} --help`)")
 
 
-# ------------------------------------------------------------------ writers
-def _write_bvh(motion, path: Path, units: str) -> None:
-    from quadsim.io.bvh import write_bvh
-
-    write_bvh(motion, path, units=units)
-
-
-def _metres_only(kind: str, units: str) -> None:
-    if units != "m":
-        print(f"{PROG}: warning: {kind} files are always in metres; units {units!r} "
-              "apply to .bvh files only", file=sys.stderr)
-
-
-def _write_glb(motion, path: Path, units: str) -> None:
-    from quadsim.io.gltf import write_glb
-
-    _metres_only(".glb", units)
-    write_glb(motion, path)
-
-
-def _write_npz(motion, path: Path, units: str) -> None:
-    from quadsim.io.npz import write_npz
-
-    _metres_only(".npz", units)
-    write_npz(motion, path)
-
-
-def _write_csv(motion, path: Path, units: str) -> None:
-    from quadsim.io.npz import write_csv
-
-    _metres_only(".csv", units)
-    write_csv(motion, path)
-
-
-#: Output writers by file extension: ``writer(motion, path, units)``.
-WRITERS = {".bvh": _write_bvh, ".glb": _write_glb, ".npz": _write_npz, ".csv": _write_csv}
-
-
-def _writer_for(path: Path):
-    ext = path.suffix.lower()
-    if ext not in WRITERS:
-        kind = f"{ext} files" if ext else "files without an extension"
-        raise InputError(f"`--out` {str(path)!r}: cannot write {kind}; "
-                         f"supported: {', '.join(sorted(WRITERS))}")
-    return WRITERS[ext]
-
-
 # ------------------------------------------------------------------ commands
+def _report_warning(message: str) -> None:
+    print(f"{PROG}: warning: {message}", file=sys.stderr)
+
+
+def _resolve(args, source: str, **overrides):
+    """The run a CONFIG|CHARACTER argument and its flags describe (one front door)."""
+    from quadsim.api import resolve
+
+    return resolve(source, **overrides)
+
+
 def cmd_run(args) -> int:
-    from quadsim.config import load_config, with_overrides
+    from quadsim.api import run_reporting, save
 
-    config = load_config(args.config)
-    config = with_overrides(config, duration=args.seconds, fps=args.fps, units=args.units,
-                            speed=args.speed, gait=args.gait,
-                            turn_rate_deg_s=args.turn_rate)
-    out = Path(args.out) if args.out is not None else Path("out") / f"{Path(args.config).stem}.bvh"
-    write = _writer_for(out)
-    if out.is_dir():
-        raise InputError(f"`--out` {str(out)!r} is a folder; give a file name")
+    config = _resolve(args, args.source, mode=args.mode, seconds=args.seconds, fps=args.fps,
+                      units=args.units, speed=args.speed, gait=args.gait,
+                      turn_rate_deg_s=args.turn_rate)
+    out = Path(args.out) if args.out is not None else Path("out") / f"{Path(args.source).stem}.bvh"
+    _check_out(out)
     character = config.load_character()
-
-    from quadsim.locomotion import simulate
-
-    # Warnings (a command clamped to what the character can do) as one line each.
+    motion = run_reporting(config, _report_warning)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        if config.mode == "data":
-            from quadsim.horse.controller import simulate as simulate_data
-
-            motion = simulate_data(character, config.commands, config.duration, config.fps)
-        else:
-            motion = simulate(character, config.commands, config.duration, config.fps,
-                              seed=config.seed)
+        save(motion, out, units=config.units)
     for w in caught:
-        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write(motion, out, config.units)
+        _report_warning(str(w.message))
     gaits = _gaits_used(motion)
     print(f"wrote {out}: {motion.n_frames} frames, {config.duration:g} s at "
-          f"{config.fps:g} fps, {character.id}, gaits: {', '.join(gaits) or 'none'}")
+          f"{config.fps:g} fps, {character.id} ({config.mode} mode), "
+          f"gaits: {', '.join(gaits) or 'none'}")
     return 0
+
+
+def _check_out(out: Path) -> None:
+    """Refuse an output name quadsim cannot write before any work is done."""
+    from quadsim.api import FORMATS
+
+    ext = out.suffix.lower()
+    if ext not in FORMATS:
+        kind = f"{ext} files" if ext else "files without an extension"
+        raise InputError(f"`--out` {str(out)!r}: cannot write {kind}; "
+                         f"supported: {', '.join(FORMATS)}")
+    if out.is_dir():
+        raise InputError(f"`--out` {str(out)!r} is a folder; give a file name")
 
 
 def cmd_characters(args) -> int:
@@ -156,9 +124,8 @@ def cmd_characters(args) -> int:
 
 
 def cmd_validate(args) -> int:
-    from quadsim.config import load_config
-
-    config = load_config(args.config)
+    config = _resolve(args, args.config)
+    character = config.load_character()
     commands = config.commands.commands
     speeds = [c.speed for c in commands]
     named = sorted({c.gait for c in commands if c.gait})
@@ -169,7 +136,7 @@ def cmd_validate(args) -> int:
     else:
         gaits = ", ".join(named) + ", others chosen by speed"
     print(f"ok: {args.config}")
-    print(f"  character {config.character}; {config.duration:g} s at {config.fps:g} fps "
+    print(f"  character {character.id}; {config.duration:g} s at {config.fps:g} fps "
           f"({config.n_frames} frames); seed {config.seed}; mode {config.mode}; "
           f"units {config.units}")
     print(f"  {len(commands)} command(s); speeds {min(speeds):.2f} to {max(speeds):.2f} m/s; "
@@ -215,8 +182,9 @@ def _gaits_used(motion) -> list[str]:
 
 
 # ------------------------------------------------------- seeing motion (viz)
-def _motion_source(source: str, seconds: float | None, units: str = "m"):
-    """A motion from a BVH file (cut to ``seconds``) or a simulated config."""
+def _motion_source(source: str, seconds: float | None, units: str = "m",
+                   mode: str | None = None):
+    """A motion from a BVH file (cut to ``seconds``), or the run of a config or character."""
     path = Path(source)
     if path.suffix.lower() == ".bvh":
         from quadsim.io.bvh import read_bvh
@@ -229,23 +197,10 @@ def _motion_source(source: str, seconds: float | None, units: str = "m"):
                 raise InputError(f"`--seconds` = {seconds}: must be a positive duration")
             motion = motion.time_slice(0.0, seconds + 0.5 / motion.fps)
         return motion
-    from quadsim.config import load_config, with_overrides
-    from quadsim.locomotion import simulate
+    from quadsim.api import run_reporting
 
-    config = with_overrides(load_config(path), duration=seconds)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        if config.mode == "data":
-            from quadsim.horse.controller import simulate as simulate_data
-
-            motion = simulate_data(config.load_character(), config.commands,
-                                   config.duration, config.fps)
-        else:
-            motion = simulate(config.load_character(), config.commands, config.duration,
-                              config.fps, seed=config.seed)
-    for w in caught:
-        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
-    return motion
+    config = _resolve(None, source, seconds=seconds, mode=mode)
+    return run_reporting(config, _report_warning)
 
 
 def cmd_diagram(args) -> int:
@@ -373,17 +328,25 @@ def cmd_bench(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog=PROG, description="Kinematic quadruped locomotion: generate, check and "
                 "measure gaits.")
+    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND",
                            parser_class=_Parser)
 
-    r = sub.add_parser("run", help="generate a motion from a config and write it to a file",
-                       description="Generate a motion from a config file and write it. "
-                       "--speed/--gait/--turn-rate replace the config's commands with one "
-                       "constant command; --gait alone uses that gait's preferred speed.")
-    r.add_argument("config", metavar="CONFIG", help="run configuration (TOML)")
+    r = sub.add_parser("run", help="generate a motion from a config or a character and write "
+                       "it to a file",
+                       description="Generate a motion from a config file, or from a character "
+                       "(an identifier such as `leopard`, or a character file) under a constant "
+                       "command, and write it. --speed/--gait/--turn-rate replace the config's "
+                       "commands with one constant command; --gait alone uses that gait's "
+                       f"preferred speed. A character alone walks for {DEFAULT_SECONDS:g} s.")
+    r.add_argument("source", metavar="CONFIG|CHARACTER",
+                   help="run configuration (TOML), character identifier or character file")
+    r.add_argument("--mode", choices=("procedural", "data"),
+                   help="controller: procedural, or data (a character with a clip database: "
+                   "the horse); default the config's mode, else procedural")
     r.add_argument("--out", metavar="FILE",
                    help="output file, by extension: .bvh, .glb, .npz or .csv "
-                   "(default out/<config name>.bvh)")
+                   "(default out/<config or character name>.bvh)")
     r.add_argument("--seconds", type=float, metavar="S", help="duration (s), replaces the config's")
     r.add_argument("--fps", type=float, metavar="N", help="frames per second")
     r.add_argument("--speed", type=float, metavar="M_PER_S", help="constant speed (m/s)")
@@ -397,7 +360,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_characters)
 
     v = sub.add_parser("validate", help="check a config file without running it")
-    v.add_argument("config", metavar="CONFIG")
+    v.add_argument("config", metavar="CONFIG|CHARACTER",
+                   help="run configuration (TOML), character identifier or character file")
     v.set_defaults(func=cmd_validate)
 
     m = sub.add_parser("metrics", help="measure a motion file: footfalls, slide, "
@@ -481,15 +445,16 @@ _ANNOUNCING = False
 
 
 def _announce_compiling() -> None:
-    """Tell a person at a terminal, once, when the numba kernels are being compiled.
+    """Say once, on stderr, when the numba kernels are being compiled.
 
     numba compiles a kernel on its first use and caches the machine code
     (``__pycache__``), so this shows only on the first run after installing
-    or updating; output that is not a terminal (a pipe, a log, the tests)
-    is left alone.
+    or updating -- on every kind of output (a terminal, a pipe, a log), so a
+    wait of several seconds is never unexplained. The line starts with
+    ``quadsim: note:``.
     """
     global _ANNOUNCING
-    if _ANNOUNCING or not sys.stderr.isatty():
+    if _ANNOUNCING:
         return
     _ANNOUNCING = True
     from numba.core import event
@@ -500,9 +465,8 @@ def _announce_compiling() -> None:
         def on_start(self, ev) -> None:
             if not self.said:
                 self.said = True
-                print(f"{PROG}: compiling the numeric kernels (first run after installing or "
-                      "updating; up to a minute, cached afterwards) ...", file=sys.stderr,
-                      flush=True)
+                print(f"{PROG}: note: compiling the numeric kernels (once after installing "
+                      "or updating; cached afterwards) ...", file=sys.stderr, flush=True)
 
         def on_end(self, ev) -> None:
             pass

@@ -41,9 +41,15 @@ def files_in(folder):
     return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
 
 
+def _without_notes(err: str) -> str:
+    """stderr without the one-time ``quadsim: note:`` line of a kernel compile."""
+    return "".join(line for line in err.splitlines(keepends=True)
+                   if not line.startswith("quadsim: note:"))
+
+
 def assert_input_error(code, capsys, *patterns):
     """Exit status 2, one ``quadsim: error:`` paragraph on stderr, no traceback."""
-    err = capsys.readouterr().err
+    err = _without_notes(capsys.readouterr().err)
     assert code == 2
     assert err.startswith("quadsim: error: ")
     assert err.count("\n") == 1
@@ -203,12 +209,12 @@ def test_failed_run_keeps_an_existing_output(here, capsys):
 
 
 def test_failed_simulation_writes_nothing(here, capsys, monkeypatch):
-    import quadsim.locomotion
+    import quadsim.api
 
     def broken(*args, **kw):
         raise InputError("the engine refused")
 
-    monkeypatch.setattr(quadsim.locomotion, "simulate", broken)
+    monkeypatch.setattr(quadsim.api, "simulate", broken)
     (here / "keep.bvh").write_text("old contents")
     code = main(["run", "walk.toml", "--out", "keep.bvh"])
     assert_input_error(code, capsys, "the engine refused")
@@ -218,21 +224,23 @@ def test_failed_simulation_writes_nothing(here, capsys, monkeypatch):
     assert files_in(here) == ["keep.bvh", "walk.toml"]
 
 
-def test_run_prints_warnings_as_one_line_each(here, capsys, monkeypatch):
+def test_run_prints_each_distinct_warning_once_as_one_line(here, capsys, monkeypatch):
     import warnings
 
-    import quadsim.locomotion
+    import quadsim.api
 
-    real = quadsim.locomotion.simulate
+    real = quadsim.api.simulate
 
     def warns(*args, **kw):
-        warnings.warn("turn rate clamped", UserWarning, stacklevel=2)
+        for _ in range(3):
+            warnings.warn("turn rate clamped", UserWarning, stacklevel=2)
+        warnings.warn("speed clamped", UserWarning, stacklevel=2)
         return real(*args, **kw)
 
-    monkeypatch.setattr(quadsim.locomotion, "simulate", warns)
+    monkeypatch.setattr(quadsim.api, "simulate", warns)
     assert main(["run", "walk.toml", "--seconds", "1", "--out", "w.bvh"]) == 0
-    err = capsys.readouterr().err
-    assert err == "quadsim: warning: turn rate clamped\n"
+    err = _without_notes(capsys.readouterr().err)
+    assert err == "quadsim: warning: turn rate clamped\nquadsim: warning: speed clamped\n"
 
 
 # ------------------------------------------------------------------ metrics

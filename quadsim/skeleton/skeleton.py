@@ -111,11 +111,13 @@ class Skeleton:
 
     @cached_property
     def rest_positions(self) -> np.ndarray:
-        """World positions of the joints at rest, shape (J, 3)."""
-        from quadsim.skeleton.fk import forward_kinematics
-
-        R = np.broadcast_to(np.eye(3), (self.n_joints, 3, 3))
-        _, P = forward_kinematics(self, R, self.offsets[0])
+        """World positions of the joints at rest, shape (J, 3): each joint at its
+        parent's position plus its offset (no rotation anywhere), the root at
+        its own offset."""
+        P = np.empty((self.n_joints, 3))
+        P[0] = self.offsets[0]
+        for j in range(1, self.n_joints):
+            P[j] = P[self.parents[j]] + self.offsets[j]
         P.setflags(write=False)
         return P
 

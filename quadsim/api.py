@@ -1,0 +1,295 @@
+"""The front door: from a config, a character or a command to a motion and a file.
+
+Everything that turns a description into motion goes through here -- the
+``quadsim`` command (``run``, ``diagram``, ``render``, ``preview``), the
+notebooks and a library user's code::
+
+    import quadsim
+
+    motion = quadsim.run("configs/leopard.toml")            # a config file
+    motion = quadsim.run("horse", mode="data", speed=4.0)   # a character and a command
+    quadsim.save(motion, "out/horse.glb")                   # format from the extension
+
+    leopard = quadsim.load_character("leopard")
+    ctl = quadsim.make_controller(leopard)                  # step it yourself
+    frame = ctl.step(quadsim.Command(speed=3.0), 1 / 60)
+
+:func:`resolve` turns any of the accepted sources into a validated
+:class:`~quadsim.config.RunConfig`; :func:`simulate` runs a character
+through commands in either mode; :func:`run` is the two together.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+from quadsim.commands import Command, Script
+from quadsim.errors import InputError, QuadsimClampWarning
+
+__all__ = ["DEFAULT_SECONDS", "FORMATS", "make_controller", "resolve", "run", "save",
+           "simulate"]
+
+#: Length (s) of a run made from a character without a config.
+DEFAULT_SECONDS = 10.0
+#: Frame rate of a run made from a character without a config.
+DEFAULT_FPS = 60.0
+#: Output formats :func:`save` writes, by extension.
+FORMATS = (".bvh", ".glb", ".npz", ".csv")
+#: Controller modes.
+MODES = ("procedural", "data")
+
+
+def _character(ref):
+    from quadsim.skeleton.character import Character, load_character
+
+    return ref if isinstance(ref, Character) else load_character(ref)
+
+
+def _check_mode(character, mode: str, label: str = "`mode`") -> None:
+    if mode not in MODES:
+        raise InputError(f"{label} = {mode!r} is not a known mode; allowed: "
+                         f"{', '.join(map(repr, MODES))}")
+    if mode == "data":
+        from quadsim.horse.database import clip_folder
+
+        if clip_folder(character) is None:
+            raise InputError(f"{label} = 'data' needs a character with a clip database; "
+                             f"{character.id!r} has none; use the procedural mode for it, "
+                             "or a character with clips (the horse)")
+
+
+def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60.0,
+                    seed: int = 0, gait: str | None = None, database=None):
+    """A controller for ``character`` in ``mode``, to step yourself.
+
+    Parameters
+    ----------
+    character : Character or str
+        A character, its identifier (``"leopard"``) or a character file.
+    mode : {"procedural", "data"}
+        ``"data"`` plays the character's clip database (the horse).
+    dt : float
+        Default step (s).
+    seed : int
+        Procedural mode: the seed of the oscillators' start.
+    gait : str, optional
+        Procedural mode: the starting gait.
+    database : ClipDatabase, optional
+        Data mode: the clips (default: the character's shipped ones).
+
+    Returns
+    -------
+    Controller
+        ``step(command, dt) -> Frame`` (see :mod:`quadsim.controller`).
+    """
+    character = _character(character)
+    _check_mode(character, mode)
+    if mode == "data":
+        from quadsim.horse.controller import HorseDataController
+
+        return HorseDataController(character, database, dt=dt)
+    from quadsim.locomotion.controller import ProceduralController
+
+    return ProceduralController(character, dt=dt, seed=seed, gait=gait)
+
+
+def simulate(character, commands: Script | Command, *, seconds: float,
+             fps: float = DEFAULT_FPS, mode: str = "procedural", seed: int = 0):
+    """Run ``character`` through ``commands`` and return the motion.
+
+    Parameters
+    ----------
+    character : Character or str
+    commands : Script or Command
+        What to do over time (a single command is held throughout).
+    seconds : float
+        Length of the run (s); the motion has ``round(seconds * fps)`` frames.
+    fps : float
+        Frames per second; the controller steps once a frame.
+    mode : {"procedural", "data"}
+    seed : int
+        Procedural mode's seed.
+
+    Returns
+    -------
+    Motion
+        With planned contacts, gait labels and per-frame extras (the data
+        mode's ``extras["ground"]`` is the ground under each foot).
+
+    Raises
+    ------
+    InputError
+        For a run shorter than one frame, a bad mode or character.
+    """
+    character = _character(character)
+    _check_mode(character, mode)
+    if isinstance(commands, Command):
+        commands = Script.constant(commands)
+    if not (seconds > 0 and fps > 0) or round(seconds * fps) < 1:
+        raise InputError(f"a run of {seconds!r} s at {fps!r} fps has no frame; give at least "
+                         "one frame (seconds * fps >= 1)")
+    if mode == "data":
+        from quadsim.horse.controller import simulate as simulate_data
+
+        return simulate_data(character, commands, seconds, fps)
+    from quadsim.locomotion.controller import simulate as simulate_procedural
+
+    return simulate_procedural(character, commands, seconds, fps, seed=seed)
+
+
+def _is_config(source) -> bool:
+    """A TOML file holding a run configuration (a ``[[command]]`` script)."""
+    p = Path(source)
+    if p.suffix.lower() != ".toml" or not p.is_file():
+        return False
+    import tomllib
+
+    try:
+        data = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return True  # let load_config say what is wrong with it
+    return "command" in data or "duration" in data
+
+
+def resolve(source, *, mode: str | None = None, seconds: float | None = None,
+            fps: float | None = None, units: str | None = None, speed: float | None = None,
+            gait: str | None = None, turn_rate_deg_s: float | None = None):
+    """A validated :class:`~quadsim.config.RunConfig` for any accepted source.
+
+    Parameters
+    ----------
+    source : str, os.PathLike, RunConfig or Character
+        A config file, a character identifier (``"leopard"``), a character
+        file, or a config or character already loaded.
+    mode : {"procedural", "data"}, optional
+        Replaces a config's mode; for a character the default is procedural.
+    seconds, fps, units, speed, gait, turn_rate_deg_s : optional
+        As the ``quadsim run`` flags: the first three replace the config's;
+        any of the last three replace its commands with one constant command
+        (``gait`` alone at its preferred speed). A character without any of
+        them walks at its slowest gait's preferred speed for
+        :data:`DEFAULT_SECONDS`.
+
+    Raises
+    ------
+    InputError
+        Naming the file, key or flag and what is allowed.
+    """
+    from dataclasses import replace
+
+    from quadsim.config import RunConfig, constant_command, load_config, with_overrides
+    from quadsim.skeleton.character import Character
+
+    if isinstance(source, RunConfig):
+        config = source
+    elif not isinstance(source, Character) and _is_config(source):
+        config = load_config(source)
+    else:
+        character = _character(source)
+        ref = character.id if not isinstance(source, (str, os.PathLike)) or \
+            not str(source).endswith(".toml") else str(Path(source).resolve())
+        run_mode = mode or "procedural"
+        _check_mode(character, run_mode, "`--mode`")
+        config = RunConfig(character=ref, duration=DEFAULT_SECONDS, fps=DEFAULT_FPS, seed=0,
+                           mode=run_mode, units="m",
+                           commands=Script.constant(constant_command(character)))
+    if mode is not None and mode != config.mode:
+        _check_mode(config.load_character(), mode, "`--mode`")
+        config = replace(config, mode=mode)
+    return with_overrides(config, duration=seconds, fps=fps, units=units, speed=speed,
+                          gait=gait, turn_rate_deg_s=turn_rate_deg_s)
+
+
+def run(source, **overrides):
+    """The motion of a config, or of a character under a constant command.
+
+    ``run(source, **overrides)`` is ``simulate`` of ``resolve(source,
+    **overrides)``; see :func:`resolve` for the sources and overrides.
+
+    Returns
+    -------
+    Motion
+    """
+    config = resolve(source, **overrides)
+    return simulate(config.load_character(), config.commands, seconds=config.duration,
+                    fps=config.fps, mode=config.mode, seed=config.seed)
+
+
+def run_reporting(config, report=None):
+    """:func:`simulate` a resolved config, each distinct clamp warning passed to
+    ``report(message)`` once (default: re-issued as warnings)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        motion = simulate(config.load_character(), config.commands, seconds=config.duration,
+                          fps=config.fps, mode=config.mode, seed=config.seed)
+    seen: set[str] = set()
+    for w in caught:
+        msg = str(w.message)
+        if msg in seen:
+            continue
+        seen.add(msg)
+        if report is None:
+            warnings.warn(msg, w.category if issubclass(w.category, Warning)
+                          else QuadsimClampWarning, stacklevel=2)
+        else:
+            report(msg)
+    return motion
+
+
+def save(motion, path, *, units: str = "m") -> Path:
+    """Write ``motion`` to ``path``, the format chosen by the extension.
+
+    Parameters
+    ----------
+    motion : Motion
+    path : str or os.PathLike
+        ``.bvh`` (Biovision hierarchy), ``.glb`` (binary glTF with a skinned
+        body), ``.npz`` or ``.csv`` (joint world positions and contacts).
+        Missing folders are created; the file is written whole or not at all.
+    units : {"m", "cm"}
+        Length unit of a BVH file; the other formats are always in metres.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    InputError
+        For an extension quadsim does not write, a folder as ``path``, or a
+        unit other than m/cm.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise InputError(f"{str(path)!r} is a folder; give a file name")
+    ext = path.suffix.lower()
+    if ext not in FORMATS:
+        kind = f"{ext} files" if ext else "files without an extension"
+        raise InputError(f"{str(path)!r}: cannot write {kind}; supported: "
+                         f"{', '.join(FORMATS)}")
+    if units not in ("m", "cm"):
+        raise InputError(f"`units` = {units!r}; allowed: 'm', 'cm'")
+    if units != "m" and ext != ".bvh":
+        warnings.warn(f"{ext} files are always in metres; units {units!r} apply to .bvh "
+                      "files only", UserWarning, stacklevel=2)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if ext == ".bvh":
+        from quadsim.io.bvh import write_bvh
+
+        write_bvh(motion, path, units=units)
+    elif ext == ".glb":
+        from quadsim.io.gltf import write_glb
+
+        write_glb(motion, path)
+    elif ext == ".npz":
+        from quadsim.io.npz import write_npz
+
+        write_npz(motion, path)
+    else:
+        from quadsim.io.npz import write_csv
+
+        write_csv(motion, path)
+    return path

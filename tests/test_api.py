@@ -1,0 +1,93 @@
+"""The front door: one way from a config, a character or a command to a motion and a file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import quadsim
+from quadsim.cli import main
+from quadsim.errors import InputError
+from quadsim.io.bvh import read_bvh
+from quadsim.skeleton.contacts import foot_contacts
+
+CONFIGS = Path(__file__).resolve().parents[1] / "configs"
+
+
+def test_import_quadsim_gives_what_a_library_user_needs():
+    for name in ("load_character", "list_characters", "make_controller", "simulate", "run",
+                 "save", "Command", "Script", "Motion", "Frame", "Controller", "InputError"):
+        assert hasattr(quadsim, name), name
+    assert set(quadsim.list_characters()) >= {"leopard", "leopard_cub", "dog_cub", "horse"}
+
+
+def test_run_of_a_character_and_a_gait_trots_at_the_trot_duty_factor():
+    motion = quadsim.run("leopard", gait="trot", seconds=4)
+    assert motion.n_frames == 240 and set(motion.gaits) == {"trot"}
+    # measured from the feet, after the start: diagonal pairs share their contact frames
+    c = foot_contacts(motion.foot_positions(), motion.fps)[120:]
+    lf, rf, lh, rh = c.T
+    assert (lf == rh).mean() > 0.9 and (rf == lh).mean() > 0.9
+    assert (lf != rf).mean() > 0.5
+
+
+def test_a_data_mode_config_runs_the_data_driven_horse_on_its_ground():
+    """The front door gives the data-mode motion for a data-mode config (not the procedural
+    horse), with the ground it walks on, and the feet stand on that ground."""
+    cfg = quadsim.resolve(CONFIGS / "horse_data.toml", seconds=14)
+    assert cfg.mode == "data"
+    motion = quadsim.run(cfg)
+    same = quadsim.simulate("horse", cfg.commands, seconds=14, fps=cfg.fps, mode="data")
+    np.testing.assert_array_equal(motion.root_positions, same.root_positions)
+    ground = motion.extras["ground"]
+    assert ground.shape == (motion.n_frames, 4)
+    assert np.ptp(ground) > 0.3  # the ramp is climbed
+    feet = motion.foot_positions()
+    planted = motion.contacts
+    gap = np.abs(feet[..., 1] - ground)[planted]
+    assert gap.size and np.percentile(gap, 90) < 0.05
+
+
+def test_save_picks_the_format_from_the_extension(tmp_path):
+    motion = quadsim.run("dog_cub", gait="walk", seconds=1)
+    bvh = quadsim.save(motion, tmp_path / "a" / "m.bvh")
+    back = read_bvh(bvh)
+    order = [back.skeleton.names.index(n) for n in motion.skeleton.names]
+    np.testing.assert_allclose(back.world_positions()[:, order], motion.world_positions(),
+                               atol=1e-6)
+    assert quadsim.save(motion, tmp_path / "m.glb").read_bytes()[:4] == b"glTF"
+    assert set(np.load(quadsim.save(motion, tmp_path / "m.npz")).files) >= {"positions"}
+    assert quadsim.save(motion, tmp_path / "m.csv").read_text().count("\n") > motion.n_frames
+    with pytest.raises(InputError, match=r"cannot write \.fbx files; supported: \.bvh"):
+        quadsim.save(motion, tmp_path / "m.fbx")
+    with pytest.raises(InputError, match="is a folder"):
+        quadsim.save(motion, tmp_path / "a")
+
+
+def test_a_run_shorter_than_one_frame_is_refused():
+    with pytest.raises(InputError, match="no frame"):
+        quadsim.run("leopard", seconds=0.005)
+
+
+def test_a_character_without_clips_has_no_data_mode():
+    with pytest.raises(InputError, match=r"`--mode` = 'data' needs a character with a clip"):
+        quadsim.run("leopard", mode="data")
+
+
+def test_cli_runs_a_character_id_with_flags(tmp_path, capsys):
+    out = tmp_path / "l.bvh"
+    assert main(["run", "leopard", "--gait", "trot", "--seconds", "3", "--out", str(out)]) == 0
+    assert "leopard (procedural mode), gaits: trot" in capsys.readouterr().out
+    assert read_bvh(out).n_frames == 180
+    out = tmp_path / "h.glb"
+    assert main(["run", "horse", "--mode", "data", "--speed", "4", "--seconds", "3",
+                 "--out", str(out)]) == 0
+    assert "horse (data mode)" in capsys.readouterr().out
+    assert out.read_bytes()[:4] == b"glTF"
+
+
+def test_cli_version(capsys):
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"quadsim {quadsim.__version__}"
