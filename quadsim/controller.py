@@ -19,6 +19,7 @@ layer), so both engines can import it without importing each other.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from types import MappingProxyType
 from typing import Mapping, Protocol, runtime_checkable
 
@@ -99,6 +100,15 @@ class Frame:
                 raise ValueError(f"Frame `{name}` has shape {a.shape}, expected {shape}")
             set_(self, name, a)
         set_(self, "extras", MappingProxyType({k: _frozen(v) for k, v in self.extras.items()}))
+
+    @cached_property
+    def world_rotations(self) -> np.ndarray:
+        """World rotation of every joint, shape (J, 3, 3) (forward kinematics, once)."""
+        from quadsim.skeleton.fk import forward_kinematics
+
+        G, _ = forward_kinematics(self.skeleton, self.local_rotations, self.root)
+        G.setflags(write=False)
+        return G
 
 
 @runtime_checkable
