@@ -1,0 +1,120 @@
+"""Structure from the skeleton, and what a viewer sees measured from joint positions."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import quadsim
+from quadsim.analysis.appearance import (
+    appearance_report,
+    spine_flexion,
+    toe_positions,
+    trunk_pitch,
+)
+from quadsim.frames import GRAVITY
+from quadsim.skeleton.anatomy import find_anatomy
+from quadsim.skeleton.skeleton import Skeleton
+
+CHARACTERS = ("leopard", "leopard_cub", "dog_cub", "horse")
+
+
+def _anonymous(skeleton: Skeleton) -> Skeleton:
+    """The same tree with meaningless joint names (a BVH of unknown naming)."""
+    names = tuple(f"j{j:02d}" for j in range(skeleton.n_joints))
+    ends = {names[skeleton.names.index(k)]: v for k, v in skeleton.end_sites.items()}
+    return Skeleton(names, skeleton.parents, skeleton.offsets, ends)
+
+
+@pytest.mark.parametrize("cid", CHARACTERS)
+def test_anatomy_is_found_from_the_tree_and_rest_pose_alone(cid):
+    ch = quadsim.load_character(cid)
+    sk = ch.skeleton
+    a = find_anatomy(_anonymous(sk))
+    assert [sk.names[f] for f in a.feet] == list(ch.foot_joints)
+    for leg, spec in zip(a.legs, ch.legs):
+        assert leg[0] == spec.top and leg[-1] == spec.foot
+    assert sk.names[a.pelvis] == "pelvis" and sk.names[a.head] == "head"
+    assert a.withers == sk.parents[ch.legs[0].top]
+    assert a.pelvis in a.spine and a.withers in a.spine and a.mid_spine in a.spine[1:-1]
+    assert a.hip_height == pytest.approx(ch.hip_height, rel=1e-9)
+
+
+def test_a_skeleton_with_three_legs_is_not_a_quadruped():
+    sk = quadsim.load_character("leopard").skeleton
+    drop = [j for j, n in enumerate(sk.names) if n.startswith("RH_")]
+    keep = [j for j in range(sk.n_joints) if j not in drop]
+    remap = {j: k for k, j in enumerate(keep)}
+    three = Skeleton(tuple(sk.names[j] for j in keep),
+                     [-1 if sk.parents[j] < 0 else remap[int(sk.parents[j])] for j in keep],
+                     sk.offsets[keep], {k: v for k, v in sk.end_sites.items()
+                                        if not k.startswith("RH_")})
+    with pytest.raises(ValueError, match="needs four legs ending in feet near the ground at rest; this one has 3"):
+        find_anatomy(three)
+
+
+def test_trunk_pitch_and_spine_flexion_of_known_poses():
+    a = find_anatomy(quadsim.load_character("leopard").skeleton)
+    J = len(a.names)
+    P = np.zeros((2, J, 3))
+    # frame 0: the trunk raised 20 deg at the withers, straight;
+    # frame 1: level girdles, the mid-spine dropped so the chords meet at 30 deg
+    P[0, a.pelvis] = [0, 0.5, 0]
+    P[0, a.withers] = [0, 0.5 + math.sin(math.radians(20)), math.cos(math.radians(20))]
+    P[0, a.mid_spine] = 0.5 * (P[0, a.pelvis] + P[0, a.withers])
+    P[1, a.pelvis] = [0, 0.5, 0]
+    P[1, a.withers] = [0, 0.5, 1.0]
+    P[1, a.mid_spine] = [0, 0.5 - 0.5 * math.tan(math.radians(15)), 0.5]
+    np.testing.assert_allclose(np.degrees(trunk_pitch(P, a)), [20.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(np.degrees(spine_flexion(P, a)), [0.0, 30.0], atol=1e-9)
+
+
+def test_toe_tips_are_the_feet_end_sites_in_the_world():
+    m = quadsim.run("leopard", gait="walk", seconds=0.5)
+    a = find_anatomy(m.skeleton, m.foot_joints)
+    toes = toe_positions(m, a)
+    G = m.world_rotations()[:, list(a.feet)]
+    feet = m.foot_positions()
+    for i, name in enumerate(m.foot_joints):
+        want = feet[:, i] + G[:, i] @ m.skeleton.end_sites[name]
+        np.testing.assert_allclose(toes[:, i], want, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def gallop():
+    return quadsim.run("horse", gait="transverse_gallop", seconds=8)
+
+
+def test_a_gallop_report_measures_strides_trunk_contacts_and_joints(gallop):
+    r = appearance_report(gallop, start=2.0)
+    assert r["strides"] >= 8
+    assert 0 < r["stride_over_h"] < 10 and r["alexander_over_h"] > 0 and r["cadence"] > 0
+    assert r["flights"] >= 8 and len(r["flight_accel_g"]) == r["flights"]
+    assert r["peak_joint_speed_deg_s"] > 100
+    assert 0.0 <= r["locked_swing_fraction"] <= 1.0
+    assert r["toe_slide_mm_p90"] >= 0 and r["touchdown_speed_ratio_p90"] > 0
+
+
+def test_flight_acceleration_sees_a_ballistic_fall(gallop):
+    """Lift the whole body along a parabola of -g in each flight phase: the measured
+    flight acceleration drops by one g, whatever the motion did before."""
+    r0 = appearance_report(gallop, start=2.0)
+    root = np.array(gallop.root_positions)
+    fps = gallop.fps
+    from quadsim.skeleton.contacts import foot_contacts
+
+    air = ~foot_contacts(gallop.foot_positions(), fps).any(axis=1)
+    m = np.concatenate([[False], air, [False]]).astype(np.int8)
+    starts, ends = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
+    for s, e in zip(starts, ends):
+        t = np.arange(s, e) / fps
+        t0, t1 = (s - 1) / fps, e / fps
+        root[s:e, 1] += 0.5 * GRAVITY * (t - t0) * (t1 - t)
+    lifted = replace(gallop, root_positions=root)
+    r1 = appearance_report(lifted, start=2.0)
+    assert r1["flights"] == r0["flights"]
+    np.testing.assert_allclose(np.array(r1["flight_accel_g"]) - r0["flight_accel_g"], -1.0,
+                               atol=0.02)
