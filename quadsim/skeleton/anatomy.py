@@ -6,7 +6,7 @@ of unknown naming included. :func:`find_anatomy` reads it from the tree and
 the rest pose only:
 
 - the **feet** are the four lowest leaf joints at rest (each near the ground:
-  within :data:`FOOT_BAND` of the root's height); fore feet are the two
+  within :data:`FOOT_BAND` of the skeleton's height); fore feet are the two
   further forward (+Z), left ones further to +X; each foot's **toe tip** is its
   bone's end site (the foot joint itself when the file has none);
 - each leg climbs from its foot to the joint where it leaves the trunk (the
@@ -34,7 +34,7 @@ from quadsim.skeleton.skeleton import Skeleton
 __all__ = ["FOOT_BAND", "Anatomy", "find_anatomy"]
 
 #: An end joint is a foot when its rest height above the lowest end joint is at
-#: most this fraction of the root's (a tail tip or a head hangs higher).
+#: most this fraction of the skeleton's height (a tail tip or a head hangs higher).
 FOOT_BAND = 0.25
 
 
@@ -119,7 +119,7 @@ def find_anatomy(skeleton: Skeleton, foot_joints=None) -> Anatomy:
         feet = list(skeleton.indices(tuple(foot_joints)))
     else:
         floor = min(P[j, Y] for j in leaves)
-        reach = FOOT_BAND * (P[0, Y] - floor)
+        reach = FOOT_BAND * (P[:, Y].max() - floor)
         near = [j for j in leaves if P[j, Y] - floor <= reach]
         if len(near) < 4:
             raise ValueError(f"a quadruped skeleton needs four legs ending in feet near the "
