@@ -91,3 +91,125 @@ def test_files_that_are_no_rig_are_refused(tmp_path):
     empty.write_text('{"asset": {"version": "2.0"}, "nodes": [{"name": "a"}]}')
     with pytest.raises(InputError, match="has no skin"):
         read_gltf_rig(empty)
+
+
+# ------------------------------------------------------ writing into the model
+@pytest.fixture(scope="module")
+def fox_motion(fox):
+    """Two seconds of the fox skeleton: legs swinging, the trunk rocking, moving forward."""
+    from quadsim.skeleton.motion import Motion
+    from quadsim.kinematics.rotations import quaternions_from_matrices
+
+    sk = fox.skeleton()
+    T, J, fps = 48, sk.n_joints, 24.0
+    t = np.arange(T) / fps
+    axes = np.zeros((T, J, 3))
+    axes[..., 0] = 1.0
+    angles = 0.4 * np.sin(2 * np.pi * 1.5 * t[:, None] + np.arange(J)[None, :])
+    local = matrices_from_axis_angles(axes, angles)
+    root = np.stack([np.zeros(T), 0.02 * np.sin(4 * t), 1.2 * t], axis=1)
+    return Motion(sk, fps, root, quaternions_from_matrices(local))
+
+
+def _node_world(g, node_rot, node_trans):
+    """World matrices of every node with some rotations/translations replaced."""
+    from quadsim.io.rig import _node_matrix
+
+    parent = {c: i for i, n in enumerate(g.nodes) for c in (n.children or [])}
+    out = {}
+
+    def world(i):
+        if i not in out:
+            M = _node_matrix(g.nodes[i])
+            if i in node_rot:
+                x, y, z, w = node_rot[i]
+                from quadsim.kinematics.rotations import matrices_from_quaternions
+
+                s = np.linalg.norm(M[:3, :3], axis=0)
+                M[:3, :3] = matrices_from_quaternions(np.array([w, x, y, z])) * s
+            if i in node_trans:
+                M[:3, 3] = node_trans[i]
+            p = parent.get(i)
+            out[i] = M if p is None else world(p) @ M
+        return out[i]
+
+    return {i: world(i) for i in range(len(g.nodes))}
+
+
+@needs_fox
+def test_the_motion_is_written_into_the_users_own_model(fox, fox_motion, tmp_path):
+    import pygltflib
+
+    from quadsim.io.rig_export import write_into_model
+
+    out = write_into_model(fox, fox_motion, tmp_path / "fox_quadsim.glb")
+    src = pygltflib.GLTF2().load(str(FOX))
+    g = pygltflib.GLTF2().load(str(out))
+    # the user's model untouched: nodes, names, skin, mesh, materials, its own animations
+    assert [n.name for n in g.nodes] == [n.name for n in src.nodes]
+    assert g.skins[0].joints == src.skins[0].joints
+    pos = g.meshes[0].primitives[0].attributes.POSITION
+    assert g.accessors[pos].count == 1728
+    assert len(g.materials) == len(src.materials) and len(g.images) == len(src.images)
+    assert [a.name for a in g.animations] == ["Survey", "Walk", "Run", "quadsim"]
+    # the added animation puts every joint where quadsim's skeleton has it
+    anim = g.animations[-1]
+    blob = g.binary_blob()
+
+    def read(acc_index, width):
+        acc = g.accessors[acc_index]
+        view = g.bufferViews[acc.bufferView]
+        start = view.byteOffset + (acc.byteOffset or 0)
+        return np.frombuffer(blob[start:start + 4 * width * acc.count],
+                             dtype=np.float32).reshape(acc.count, width)
+
+    rot, trans = {}, {}
+    for ch in anim.channels:
+        s = anim.samplers[ch.sampler]
+        if ch.target.path == "rotation":
+            rot[ch.target.node] = read(s.output, 4)
+        else:
+            trans[ch.target.node] = read(s.output, 3)
+    assert set(rot) == set(int(n) for n in fox.nodes) and list(trans) == [int(fox.nodes[0])]
+    P = fox_motion.world_positions()
+    for k in (0, 17, 47):
+        W = _node_world(g, {n: q[k] for n, q in rot.items()},
+                        {n: v[k] for n, v in trans.items()})
+        got = np.array([W[int(n)][:3, 3] for n in fox.nodes]) * fox.scale
+        np.testing.assert_allclose(got, P[k], atol=2e-5)  # float32 keys
+
+
+@needs_fox
+def test_the_written_model_passes_the_khronos_validator(fox, fox_motion, tmp_path):
+    """The Fox's own file has byteStride where the specification forbids it; the file
+    quadsim writes from it must not inherit that."""
+    from gltf_tools import validate
+
+    from quadsim.io.rig_export import write_into_model
+
+    out = write_into_model(fox, [fox_motion, fox_motion[:10]], tmp_path / "fox2.glb",
+                           names=["trot", "Walk"])
+    source, ours = validate(FOX, out)
+    assert source["issues"]["numErrors"] > 0      # the model as it came
+    issues = ours["issues"]
+    errors = [m for m in issues["messages"] if m["severity"] == 0]
+    assert issues["numErrors"] == 0, errors
+    # warnings only where the user's own data has them (zero-weight joint indices)
+    codes = {m["code"] for m in issues["messages"] if m["severity"] == 1}
+    assert codes <= {m["code"] for m in source["issues"]["messages"]
+                     if m["severity"] == 1}, codes
+    import pygltflib
+
+    names = [a.name for a in pygltflib.GLTF2().load(str(out)).animations]
+    assert names == ["Survey", "Walk", "Run", "trot", "Walk_2"]
+
+
+def test_a_motion_of_another_skeleton_is_refused(fox, tmp_path):
+    if not FOX.is_file():
+        pytest.skip("no Fox")
+    import quadsim
+    from quadsim.io.rig_export import write_into_model
+
+    m = quadsim.run("leopard", gait="walk", seconds=0.2)
+    with pytest.raises(InputError, match="another skeleton"):
+        write_into_model(fox, m, tmp_path / "x.glb")

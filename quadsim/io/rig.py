@@ -64,6 +64,9 @@ class Rig:
         The unit judged from the standing height: ``"m"``, ``"cm"`` or ``"mm"``.
     vertex_count : int
         Vertices of the meshes this skin deforms.
+    above : ndarray, shape (4, 4)
+        World transform of the node above the root joint (identity when the
+        root joint is a top node), in the file's units.
     """
 
     path: Path
@@ -74,6 +77,7 @@ class Rig:
     rest_world: np.ndarray
     unit: str
     vertex_count: int
+    above: np.ndarray
 
     @property
     def scale(self) -> float:
@@ -225,5 +229,7 @@ def read_gltf_rig(path, skin: int = 0) -> Rig:
             for prim in g.meshes[n.mesh].primitives:
                 verts += g.accessors[prim.attributes.POSITION].count
     height = float(W[:, Y, 3].max() - W[:, Y, 3].min())
+    up = parent_node.get(order[0])
     return Rig(path=path, names=names, nodes=np.array(order, dtype=np.int64), parents=parents,
-               rest_local=L, rest_world=W, unit=guess_unit(height), vertex_count=verts)
+               rest_local=L, rest_world=W, unit=guess_unit(height), vertex_count=verts,
+               above=np.eye(4) if up is None else world_of(up))
