@@ -213,3 +213,27 @@ def test_a_motion_of_another_skeleton_is_refused(fox, tmp_path):
     m = quadsim.run("leopard", gait="walk", seconds=0.2)
     with pytest.raises(InputError, match="another skeleton"):
         write_into_model(fox, m, tmp_path / "x.glb")
+
+
+# ------------------------------------------------------------------ adoption
+@needs_fox
+def test_the_fox_is_adopted_with_its_chains_and_a_report():
+    import tomllib
+
+    from quadsim.io.adopt import adopt
+
+    a = adopt(FOX)
+    assert a.spine == ("b_Hip_01", "b_Spine01_02", "b_Spine02_03")
+    assert (a.neck, a.head) == (("b_Neck_04",), "b_Head_05")
+    assert a.tail == ("b_Tail01_012", "b_Tail02_013", "b_Tail03_014")
+    assert a.legs["LF"][-1] == "b_LeftHand_011" and a.legs["RH"][-1] == "b_RightFoot02_022"
+    assert set(a.ignored) == {"_rootJoint", "b_Root_00"}
+    assert a.skeleton.names[0] == "b_Hip_01" and a.skeleton.n_joints == 22
+    # the kept joints stand where the rig's stand
+    np.testing.assert_allclose(a.skeleton.rest_positions,
+                               a.rig.rest_positions[a.rig_index], atol=1e-12)
+    report = a.report()
+    assert "leg LH (3 bones" in report and "unit cm" in report and "ignored (2)" in report
+    data = tomllib.loads(a.character_toml("fox", name="Fox"))
+    assert len(data["joints"]) == 22 and data["legs"]["LF"]["bend"] == "back"
+    assert data["legs"]["LH"]["ik"] == "b_LeftLeg01_015"
