@@ -1,6 +1,6 @@
 """The shipped characters, and how malformed character files are reported.
 
-Every character in ``characters/`` must load, stand on its four feet at
+Every shipped character (:func:`characters_dir`) must load, stand on its four feet at
 rest with real proportions, bend its legs the right way, and mirror its left
 legs onto its right. Bad files raise :class:`quadsim.errors.InputError`
 naming the file and the key.

@@ -1,6 +1,7 @@
 """Characters as data: a skeleton plus the named chains locomotion needs.
 
-A character file (TOML, in ``characters/``) holds:
+A character file (TOML; the shipped ones are in the package data,
+:func:`characters_dir`) holds:
 
 ``[character]``
     ``id``, ``name``, ``species``, ``mass`` (kg), ``sources`` (list of str).
@@ -33,6 +34,7 @@ from __future__ import annotations
 
 import os
 import tomllib
+from importlib import resources
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -47,15 +49,27 @@ _MIRROR = {"LF_": "RF_", "LH_": "RH_"}
 
 
 def characters_dir() -> Path:
-    """The folder of shipped character files.
+    """The folder of shipped character files, gait tables and clip databases.
 
     ``$QUADSIM_CHARACTERS`` overrides it; otherwise the ``characters/`` folder
-    beside the installed ``quadsim`` package (the repository root).
+    of the package data (``quadsim/data/characters``), found through
+    :mod:`importlib.resources` so that it works from a source checkout, an
+    editable install and an installed wheel alike.
+
+    Returns
+    -------
+    Path
+        The folder; it holds ``<id>.toml`` per character, ``gaits.toml`` and
+        ``<id>/clips/`` per clip database.
     """
     env = os.environ.get("QUADSIM_CHARACTERS")
     if env:
         return Path(env)
-    return Path(__file__).resolve().parents[2] / "characters"
+    folder = resources.files("quadsim.data") / "characters"
+    if not isinstance(folder, os.PathLike):
+        raise InputError("quadsim's data folder is not on the file system (a zipped "
+                         "install?); install quadsim as a plain wheel or folder")
+    return Path(folder)
 
 
 @dataclass(frozen=True)
@@ -179,7 +193,7 @@ class Character:
 
 # ---------------------------------------------------------------- loading
 def list_characters() -> list[str]:
-    """Identifiers of the shipped characters (the ``*.toml`` files in ``characters/``).
+    """Identifiers of the shipped characters (the ``*.toml`` files in :func:`characters_dir`).
 
     Other data files in that folder are skipped: ``gaits.toml`` (the shared
     gait tables) and any valid TOML file without a ``[character]`` table. A
