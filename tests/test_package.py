@@ -95,6 +95,7 @@ def test_a_command_without_its_extra_names_the_extra(monkeypatch, command):
 
 def test_a_missing_dotted_module_names_its_package(monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
+    monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
     with pytest.raises(InputError, match=r"`quadsim diagram` needs matplotlib: "):
         require("matplotlib.figure", "`quadsim diagram`")
 
