@@ -144,7 +144,7 @@ def test_the_core_runs_without_the_viz_and_test_packages(tmp_path):
     env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
     env["PYTHONPATH"] = str(REPO)
     out = subprocess.run([sys.executable, "-c", script], cwd=tmp_path, env=env,
-                         capture_output=True, text=True, timeout=600)
+                         capture_output=True, text=True, timeout=600, check=False)
     assert out.returncode == 0, out.stderr[-3000:]
     assert "LOADED []" in out.stdout
     assert "MESSAGE `quadsim diagram` needs matplotlib: pip install 'quadsim[viz]'" in out.stdout
@@ -166,7 +166,7 @@ def _can_build_offline() -> bool:
 
 def _run(cmd, cwd, env, timeout=300):
     out = subprocess.run([str(c) for c in cmd], cwd=cwd, env=env, capture_output=True,
-                         text=True, timeout=timeout)
+                         text=True, timeout=timeout, check=False)
     assert out.returncode == 0, f"{cmd} failed:\n{out.stdout[-2000:]}\n{out.stderr[-3000:]}"
     return out
 
@@ -198,8 +198,8 @@ class Installed:
         self.python = self.venv / "bin" / "python"
         _run(pip + ["--python", self.python, "install", "--no-deps", "--no-index",
                     self.wheel], root, env)
-        site = Path(_run([self.python, "-c", "import sysconfig; "
-                          "print(sysconfig.get_paths()['purelib'])"], root, env).stdout.strip())
+        code = "import sysconfig; print(sysconfig.get_paths()['purelib'])"
+        site = Path(_run([self.python, "-c", code], root, env).stdout.strip())
         parent = {sysconfig.get_paths()["purelib"], sysconfig.get_paths()["platlib"]}
         (site / "_quadsim_test_dependencies.pth").write_text("\n".join(sorted(parent)) + "\n")
         self.package = site / "quadsim"
