@@ -13,7 +13,8 @@ Example::
     from quadsim._optional import require, require_for
 
     plt_figure = require("matplotlib.figure", "`quadsim diagram`")
-    require_for("render")          # pyvista, imageio and imageio-ffmpeg
+    require_for("render")          # pyvista and imageio
+    require("imageio_ffmpeg", "`quadsim render` to .mp4")
 """
 
 from __future__ import annotations
@@ -25,11 +26,12 @@ from quadsim.errors import InputError
 
 __all__ = ["NEEDS", "PIP_NAMES", "require", "require_for"]
 
-#: What each command that draws needs, in import names.
+#: What each command that draws needs, in import names (an .mp4 from
+#: ``render`` needs ``imageio_ffmpeg`` as well; a GIF does not).
 NEEDS: dict[str, tuple[str, ...]] = {
     "diagram": ("matplotlib",),
     "preview": ("pyvista",),
-    "render": ("pyvista", "imageio", "imageio_ffmpeg"),
+    "render": ("pyvista", "imageio"),
 }
 
 #: Import name -> the name pip knows it by, where they differ.

@@ -93,6 +93,13 @@ def test_a_command_without_its_extra_names_the_extra(monkeypatch, command):
         require_for(command)
 
 
+def test_an_mp4_without_ffmpeg_names_imageio_ffmpeg(monkeypatch):
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    with pytest.raises(InputError, match=r"`quadsim render` to \.mp4 needs imageio-ffmpeg: "
+                                         r"pip install 'quadsim\[viz\]'"):
+        require("imageio_ffmpeg", "`quadsim render` to .mp4")
+
+
 def test_a_missing_dotted_module_names_its_package(monkeypatch):
     monkeypatch.setitem(sys.modules, "matplotlib", None)
     monkeypatch.setitem(sys.modules, "matplotlib.figure", None)
