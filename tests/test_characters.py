@@ -465,8 +465,16 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
                  r"\(did you mean 'speed'\?\)", id="unknown-gait-key"),
     pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trot"]\n\n[gaits.trott]\n'
                  "speed = [1.0, 2.0]\n",
-                 r"\[gaits\.trott\] overrides a gait that is not among locomotion\.gaits; "
-                 r"allowed: walk, trot \(did you mean 'trot'\?\)", id="override-of-a-missing-gait"),
+                 r"\[gaits\.trott\] overrides a gait that is not one of the character's gaits "
+                 r".*; allowed: walk, trot \(did you mean 'trot'\?\)",
+                 id="override-of-a-missing-gait"),
+    pytest.param(BASE + "\n[gaits.trott]\nspeed = [1.0, 2.0]\n",
+                 r"\[gaits\.trott\] overrides a gait that is not one of the character's gaits "
+                 r".*; allowed: walk, amble, rack, trot, .*\(did you mean 'trot'\?\)",
+                 id="override-of-a-gait-the-shared-table-lacks"),
+    pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trott"]\n',
+                 r"locomotion\.gaits names 'trott', which is not a gait of the shared gait "
+                 r"table; known: walk, .* \(did you mean 'trot'\?\)", id="unknown-gait-name"),
     # locomotion values
     pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trot"]\nauto = ["walk", "canter"]\n',
                  r"locomotion\.auto names 'canter', which is not among locomotion\.gaits",

@@ -54,7 +54,7 @@ import os
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
 from types import MappingProxyType
@@ -301,12 +301,31 @@ def parse_character_file(path: Path) -> Character:
         Naming the file and the field (:func:`read_character_file`,
         :func:`build_character`).
     """
-    return build_character(read_character_file(path))
+    return build_character(read_character_file(path, _shared_gait_names()))
 
 
 def character_from_dict(data: dict, src: str = "<character>") -> Character:
     """Build a :class:`Character` from parsed TOML data; ``src`` names it in messages."""
-    return build_character(character_file_from_dict(data, src))
+    return build_character(character_file_from_dict(data, src, _shared_gait_names()))
+
+
+def _shared_gait_names() -> tuple[str, ...] | None:
+    """The gaits of the shared table ``gaits.toml``, or None when it cannot be read
+    (:mod:`quadsim.locomotion.gaits` reports that when it loads the table)."""
+    path = characters_dir() / "gaits.toml"
+    try:
+        return _gait_names_of(str(path), path.stat().st_mtime_ns)
+    except OSError:
+        return None
+
+
+@lru_cache(maxsize=8)
+def _gait_names_of(path: str, mtime_ns: int) -> tuple[str, ...] | None:
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return tuple(k for k, v in data.items() if isinstance(v, dict))
 
 
 def build_character(cf: CharacterFile) -> Character:

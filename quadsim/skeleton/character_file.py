@@ -224,8 +224,17 @@ class CharacterFile:
 
 
 # --------------------------------------------------------------- reading
-def read_character_file(path: str | Path) -> CharacterFile:
+def read_character_file(path: str | Path,
+                        gait_names: tuple[str, ...] | None = None) -> CharacterFile:
     """Read and check a character file.
+
+    Parameters
+    ----------
+    path : str or Path
+    gait_names : tuple of str, optional
+        The gaits of the shared gait table; given, ``locomotion.gaits`` and
+        ``locomotion.auto`` may name only these, and a ``[gaits.<name>]``
+        table must name one of the character's gaits.
 
     Raises
     ------
@@ -246,13 +255,15 @@ def read_character_file(path: str | Path) -> CharacterFile:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{path}: not valid TOML ({e})") from None
-    return character_file_from_dict(data, str(path))
+    return character_file_from_dict(data, str(path), gait_names)
 
 
-def character_file_from_dict(data: dict, src: str = "<character>") -> CharacterFile:
+def character_file_from_dict(data: dict, src: str = "<character>",
+                             gait_names: tuple[str, ...] | None = None) -> CharacterFile:
     """Check parsed TOML data (a dict) and build a :class:`CharacterFile`.
 
-    ``src`` names the file in error messages.
+    ``src`` names the file in error messages; ``gait_names`` as in
+    :func:`read_character_file`.
     """
     _check_keys(data, _TOP_KEYS, f"{src}: top level")
     mirror = data.get("mirror_left_legs", False)
@@ -270,6 +281,7 @@ def character_file_from_dict(data: dict, src: str = "<character>") -> CharacterF
             if not isinstance(legs_t[name], dict):
                 raise InputError(f"{src}: legs.{name} must be a table, written [legs.{name}]")
             legs[name] = _leg(legs_t[name], f"{src}: legs.{name}")
+    locomotion = locomotion_table(_table(data, "locomotion", src), src, gait_names)
     return CharacterFile(
         source=src,
         character=_meta(_need(data, "character", src, dict), f"{src}: [character]", src),
@@ -278,8 +290,8 @@ def character_file_from_dict(data: dict, src: str = "<character>") -> CharacterF
         chains=_chains(_need(data, "chains", src, dict), src),
         legs=MappingProxyType(legs),
         limits=MappingProxyType(_limits(_table(data, "limits", src), src)),
-        locomotion=locomotion_table(_table(data, "locomotion", src), src),
-        gaits=_gaits(_table(data, "gaits", src), data.get("locomotion", {}), src),
+        locomotion=locomotion,
+        gaits=_gaits(_table(data, "gaits", src), locomotion.gaits or gait_names, src),
     )
 
 
@@ -363,14 +375,16 @@ def _limits(t: dict, src: str) -> dict[str, tuple[float, float]]:
     return out
 
 
-def locomotion_table(t: dict, src: str) -> LocomotionTable:
+def locomotion_table(t: dict, src: str,
+                     gait_names: tuple[str, ...] | None = None) -> LocomotionTable:
     """Check a ``[locomotion]`` table (a dict) and build its :class:`LocomotionTable`.
 
     Raises
     ------
     InputError
         Naming ``src`` and the key, for an unknown key, a value of the wrong
-        type or out of range, or an ``auto`` gait not among ``gaits``.
+        type or out of range, an ``auto`` gait not among ``gaits``, or (with
+        ``gait_names``, the shared table's gaits) a gait the table lacks.
     """
     _check_keys(t, _LOCOMOTION_KEYS, f"{src}: [locomotion]")
     values: dict = {}
@@ -381,6 +395,11 @@ def locomotion_table(t: dict, src: str) -> LocomotionTable:
                 raise InputError(f"{src}: locomotion.{key} must name at least one gait")
             if len(set(names)) != len(names):
                 raise InputError(f"{src}: locomotion.{key} names a gait twice: {list(names)}")
+            unknown = [g for g in names if gait_names is not None and g not in gait_names]
+            if unknown:
+                raise InputError(f"{src}: locomotion.{key} names {unknown[0]!r}, which is not a "
+                                 f"gait of the shared gait table; known: {', '.join(gait_names)}"
+                                 + _suggest(unknown[0], gait_names))
             values[key] = names
     if "gaits" in values and "auto" in values:
         extra = [g for g in values["auto"] if g not in values["gaits"]]
@@ -401,17 +420,17 @@ def locomotion_table(t: dict, src: str) -> LocomotionTable:
     return LocomotionTable(**values)
 
 
-def _gaits(t: dict, locomotion: dict, src: str) -> Mapping[str, Mapping]:
-    have = locomotion.get("gaits") if isinstance(locomotion, dict) else None
+def _gaits(t: dict, have: tuple[str, ...] | None, src: str) -> Mapping[str, Mapping]:
+    """The ``[gaits.*]`` tables; ``have``: the character's gaits, if known."""
     out = {}
     for name, over in t.items():
         where = f"{src}: gaits.{name}"
         if not isinstance(over, dict):
             raise InputError(f"{where} must be a table of gait fields, written [gaits.{name}]")
-        if isinstance(have, list) and name not in have:
-            raise InputError(f"{src}: [gaits.{name}] overrides a gait that is not among "
-                             f"locomotion.gaits; allowed: {', '.join(map(str, have))}"
-                             + _suggest(name, [str(g) for g in have]))
+        if have is not None and name not in have:
+            raise InputError(f"{src}: [gaits.{name}] overrides a gait that is not one of the "
+                             f"character's gaits (locomotion.gaits, or the shared gait table); "
+                             f"allowed: {', '.join(have)}" + _suggest(name, have))
         _check_keys(over, GAIT_FIELDS, where)
         out[name] = MappingProxyType(dict(over))
     return MappingProxyType(out)
