@@ -344,63 +344,68 @@ def build_character(cf: CharacterFile) -> Character:
     """
     src = cf.source
     names, parents, offsets, ends = _joint_tables(cf)
-    index = {n: k for k, n in enumerate(names)}
     try:
         skel = Skeleton(tuple(names), np.array(parents), np.array(offsets), ends)
     except ValueError as e:
         raise InputError(f"{src}: {e}") from None
-
-    def idx(name, where):
-        if name not in index:
-            raise InputError(f"{where}: no joint named {name!r}")
-        return index[name]
-
-    def chain_of(joint_names, where, n_min=0):
-        ch = np.array([idx(n, where) for n in joint_names], dtype=int)
-        for a, b in itertools.pairwise(ch):
-            if parents[b] != a:
-                raise InputError(f"{where}: {names[b]!r} is not a child of {names[a]!r}")
-        return ch
+    joints = _Joints(names, parents)
 
     c = cf.chains
-    spine = np.array([idx(n, f"{src}: chains.spine") for n in c.spine], dtype=int)
+    spine = [joints.index(n, f"{src}: chains.spine") for n in c.spine]
     if len(spine) < 5:
         raise InputError(f"{src}: chains.spine needs the pelvis and at least four more joints")
     if spine[0] != 0:
         raise InputError(f"{src}: chains.spine must start at the root joint {names[0]!r}")
-    spine = chain_of(c.spine, f"{src}: chains.spine")
-    neck = chain_of(c.neck, f"{src}: chains.neck")
-    head = idx(c.head, f"{src}: chains.head")
-    tail = chain_of(c.tail, f"{src}: chains.tail")
-
-    legs = []
-    for leg in LEGS:
-        t = _leg_entry(cf, leg)
-        where = f"{src}: legs.{leg}"
-        chain = chain_of(t.chain, f"{where}.chain")
-        if len(chain) < 3:
-            raise InputError(f"{where}.chain needs at least three joints (a two-bone pair)")
-        if t.ik not in t.chain:
-            raise InputError(f"{where}.ik: {t.ik!r} is not in the leg's chain")
-        k = t.chain.index(t.ik)
-        if k + 2 >= len(t.chain):
-            raise InputError(f"{where}.ik: the two-bone pair starting at {t.ik!r} "
-                             "needs two more joints below it in the chain")
-        gains = {g: getattr(t, g) for g in ("pre_gain", "post_gain")
-                 if getattr(t, g) is not None}
-        legs.append(LegSpec(leg, chain, k, 1.0 if t.bend == "forward" else -1.0, **gains))
-
-    limits = {}
-    for n, (lo, hi) in cf.limits.items():
-        limits[idx(n, f"{src}: limits")] = (np.radians(lo), np.radians(hi))
+    limits = {joints.index(n, f"{src}: limits"): (np.radians(lo), np.radians(hi))
+              for n, (lo, hi) in cf.limits.items()}
     meta = cf.character
     ch = Character(
         id=meta.id, name=meta.name, species=meta.species, mass=meta.mass, skeleton=skel,
-        legs=tuple(legs), spine=spine, neck=neck, head=head, tail=tail, limits=limits,
-        locomotion=cf.locomotion, gait_overrides=cf.gaits, sources=meta.sources,
-        path=Path(src) if not src.startswith("<") else None, file=cf)
+        legs=tuple(_leg_spec(cf, leg, joints) for leg in LEGS),
+        spine=joints.chain(c.spine, f"{src}: chains.spine"),
+        neck=joints.chain(c.neck, f"{src}: chains.neck"),
+        head=joints.index(c.head, f"{src}: chains.head"),
+        tail=joints.chain(c.tail, f"{src}: chains.tail"),
+        limits=limits, locomotion=cf.locomotion, gait_overrides=cf.gaits,
+        sources=meta.sources, path=Path(src) if not src.startswith("<") else None, file=cf)
     _check_stance(ch, src)
     return ch
+
+
+class _Joints:
+    """Joint names to indices, for building a character (messages name the field)."""
+
+    def __init__(self, names: list[str], parents: list[int]):
+        self.names, self.parents = names, parents
+        self._index = {n: k for k, n in enumerate(names)}
+
+    def index(self, name: str, where: str) -> int:
+        if name not in self._index:
+            raise InputError(f"{where}: no joint named {name!r}")
+        return self._index[name]
+
+    def chain(self, joint_names, where: str) -> np.ndarray:
+        """Indices of a chain, each joint the child of the one before, shape (n,)."""
+        ch = np.array([self.index(n, where) for n in joint_names], dtype=int)
+        for a, b in itertools.pairwise(ch):
+            if self.parents[b] != a:
+                raise InputError(f"{where}: {self.names[b]!r} is not a child of "
+                                 f"{self.names[a]!r}")
+        return ch
+
+
+def _leg_spec(cf: CharacterFile, leg: str, joints: _Joints) -> LegSpec:
+    t = _leg_entry(cf, leg)
+    where = f"{cf.source}: legs.{leg}"
+    chain = joints.chain(t.chain, f"{where}.chain")
+    if t.ik not in t.chain:
+        raise InputError(f"{where}.ik: {t.ik!r} is not in the leg's chain")
+    k = t.chain.index(t.ik)
+    if k + 2 >= len(t.chain):
+        raise InputError(f"{where}.ik: the two-bone pair starting at {t.ik!r} "
+                         "needs two more joints below it in the chain")
+    gains = {g: getattr(t, g) for g in ("pre_gain", "post_gain") if getattr(t, g) is not None}
+    return LegSpec(leg, chain, k, 1.0 if t.bend == "forward" else -1.0, **gains)
 
 
 def _joint_tables(cf: CharacterFile):
