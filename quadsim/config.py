@@ -26,6 +26,7 @@ frame rate, and what it is asked to do over time. Example::
 
 Each ``[[command]]`` holds until the next one starts. Rules:
 
+- ``duration`` and ``fps`` give at least one frame: ``duration * fps >= 1``.
 - ``at`` starts at 0 and increases, and every ``at`` is before ``duration``.
 - Speed: exactly one of ``speed`` (m/s), ``speed_kmh``, ``speed_mph``, from 0
   to 1.5 times the top speed of the character's fastest gait. When ``gait``
@@ -51,9 +52,9 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from quadsim.commands import Command, Script
 from quadsim.errors import InputError
 from quadsim.frames import KMH, MPH
-from quadsim.commands import Command, Script
 
 __all__ = [
     "FPS_RANGE", "MAX_DURATION", "MAX_TURN_RATE_DEG_S", "MODES", "UNITS",
@@ -120,6 +121,10 @@ class RunConfig:
     commands: Script
     source: Path | None = None
     description: str = ""
+
+    def __post_init__(self) -> None:
+        _check_frames(self.duration, self.fps, "`duration`", "`fps`",
+                      str(self.source) if self.source is not None else "<config>")
 
     @property
     def n_frames(self) -> int:
@@ -197,6 +202,7 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
         raise InputError(f"{src}: `duration` = {duration:g} s is out of range; "
                          f"allowed 0 < duration <= {MAX_DURATION:g} s")
     fps = _check_fps(_need(data, "fps", src), f"{src}: `fps`")
+    _check_frames(duration, fps, "`duration`", "`fps`", src)
 
     seed = data.get("seed", 0)
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**32:
@@ -392,6 +398,11 @@ def with_overrides(config: RunConfig, *, duration: float | None = None,
         changes["duration"] = d
     if fps is not None:
         changes["fps"] = _check_fps(fps, "`--fps`")
+    if "duration" in changes or "fps" in changes:
+        _check_frames(changes.get("duration", config.duration), changes.get("fps", config.fps),
+                      "`--seconds`" if "duration" in changes else "the config's `duration`",
+                      "`--fps`" if "fps" in changes else "the config's `fps`",
+                      str(config.source) if config.source is not None else "<config>")
     if units is not None:
         if units not in UNITS:
             raise InputError(f"`--units` = {units!r}; allowed: {', '.join(UNITS)}")
@@ -442,6 +453,33 @@ def _number(v, label: str) -> float:
     if not math.isfinite(v):
         raise InputError(f"{label} must be a finite number, got {v}")
     return v
+
+
+def _check_frames(duration: float, fps: float, duration_label: str, fps_label: str,
+                  src: str) -> None:
+    """A run must hold at least one frame: ``duration * fps >= 1``.
+
+    Parameters
+    ----------
+    duration : float
+        Run length (s).
+    fps : float
+        Frames per second.
+    duration_label, fps_label : str
+        How the message names the two values (a key or a flag).
+    src : str
+        The config file, for the message.
+
+    Raises
+    ------
+    InputError
+        Naming both values and the shortest duration at this frame rate.
+    """
+    if duration * fps < 1.0:
+        raise InputError(f"{src}: {duration_label} = {duration:g} s at {fps_label} = {fps:g} "
+                         f"gives less than one frame ({duration * fps:.3g}); a run needs "
+                         f"duration * fps >= 1, here a duration of at least {1.0 / fps:.4g} s "
+                         "or a higher fps")
 
 
 def _check_fps(v, label: str) -> float:

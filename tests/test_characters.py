@@ -1,6 +1,6 @@
 """The shipped characters, and how malformed character files are reported.
 
-Every character in ``characters/`` must load, stand on its four feet at
+Every shipped character (:func:`characters_dir`) must load, stand on its four feet at
 rest with real proportions, bend its legs the right way, and mirror its left
 legs onto its right. Bad files raise :class:`quadsim.errors.InputError`
 naming the file and the key.
@@ -221,15 +221,44 @@ def test_left_and_right_legs_mirror_each_other(name):
 def test_locomotion_table(name):
     loc = load_character(name).locomotion
     if name == "horse":
-        assert loc["gaits"] == HORSE_GAITS
-        assert loc["auto"] == ["walk", "trot", "canter", "transverse_gallop"]
-        assert 0.0 < loc["spine_flex_deg"] <= 5.0 and -5.0 <= loc["spine_extend_deg"] < 0.0
+        assert loc.gaits == tuple(HORSE_GAITS)
+        assert loc.auto == ("walk", "trot", "canter", "transverse_gallop")
+        assert 0.0 < loc.spine_flex_deg <= 5.0 and -5.0 <= loc.spine_extend_deg < 0.0
     else:
-        assert loc["gaits"] == CATS_AND_DOGS_GAITS
-        assert loc["auto"] == ["walk", "trot", "canter", "rotary_gallop"]
-        assert loc["spine_flex_deg"] >= 15.0 and loc["spine_extend_deg"] <= -8.0
-    assert set(loc["auto"]) <= set(loc["gaits"])
-    assert 0.0 < loc["max_turn_rate_deg_s"] <= 360.0
+        assert loc.gaits == tuple(CATS_AND_DOGS_GAITS)
+        assert loc.auto == ("walk", "trot", "canter", "rotary_gallop")
+        assert loc.spine_flex_deg >= 15.0 and loc.spine_extend_deg <= -8.0
+    assert set(loc.auto) <= set(loc.gaits)
+    assert 0.0 < loc.max_turn_rate_deg_s <= 360.0
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_locomotion_table_reads_as_a_mapping_of_the_keys_given(name):
+    """``locomotion.get(key, default)`` gives the file's value, or the default
+    for a key the file leaves out."""
+    loc = load_character(name).locomotion
+    assert loc["auto"] == loc.auto and loc.get("max_turn_rate_deg_s") == loc.max_turn_rate_deg_s
+    assert set(loc) == {k for k in ("gaits", "auto", "max_turn_rate_deg_s", "spine_flex_deg",
+                                    "spine_extend_deg", "spine_slow_scale",
+                                    "min_turn_radius_body_lengths")
+                        if getattr(loc, k) is not None}
+    assert "min_turn_radius_body_lengths" not in loc
+    assert loc.get("min_turn_radius_body_lengths", 1.0) == 1.0
+    with pytest.raises(KeyError):
+        loc["min_turn_radius_body_lengths"]
+
+
+def test_a_character_is_frozen_down_to_its_tables():
+    c = load_character("horse")
+    with pytest.raises(AttributeError):
+        c.mass = 1.0
+    with pytest.raises(AttributeError):
+        c.locomotion.auto = ("walk",)
+    with pytest.raises(TypeError):
+        c.gait_overrides["walk"]["speed"] = [0.0, 1.0]
+    with pytest.raises(TypeError):
+        c.file.limits["LF_elbow"] = (0.0, 1.0)
+    assert c.file.character.id == "horse" and c.file.mirror_left_legs
 
 
 # ------------------------------------------------------------ proportions
@@ -412,6 +441,90 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
                  r"missing key `character`", id="missing-character-table"),
     pytest.param(edited('{ name = "s1", parent = "pelvis"', '{ name = "s1", parent = "pelvis",,'),
                  r"not valid TOML", id="invalid-toml"),
+    # unknown or misspelt keys, at every level
+    pytest.param("mirror_left_leg = true\n" + BASE,
+                 r"top level: unknown key\(s\) \['mirror_left_leg'\]; allowed: mirror_left_legs, "
+                 r".* \(did you mean 'mirror_left_legs'\?\)", id="unknown-top-level-key"),
+    pytest.param(edited("mass = 5.0", "mass = 5.0\nweight = 5.0"),
+                 r"\[character\]: unknown key\(s\) \['weight'\]; allowed: id, name, species, "
+                 r"mass, sources", id="unknown-character-key"),
+    pytest.param(edited('head = "head"', 'head = "head"\ntails = []'),
+                 r"\[chains\]: unknown key\(s\) \['tails'\]; allowed: spine, neck, head, tail "
+                 r"\(did you mean 'tail'\?\)", id="unknown-chains-key"),
+    pytest.param(edited("[legs.LF]", "[legs.LX]\nchain = []\n\n[legs.LF]"),
+                 r"\[legs\]: unknown key\(s\) \['LX'\]; allowed: LF, RF, LH, RH",
+                 id="unknown-leg-name"),
+    pytest.param(edited('bend = "back"', 'bend = "back"\npost_gian = 0.5'),
+                 r"legs\.LF: unknown key\(s\) \['post_gian'\]; allowed: chain, ik, bend, "
+                 r"pre_gain, post_gain \(did you mean 'post_gain'\?\)", id="unknown-leg-key"),
+    pytest.param(BASE + "\n[locomotion]\nmax_turn_rate = 90.0\n",
+                 r"\[locomotion\]: unknown key\(s\) \['max_turn_rate'\]; allowed: gaits, auto, "
+                 r".*\(did you mean 'max_turn_rate_deg_s'\?\)", id="unknown-locomotion-key"),
+    pytest.param(BASE + "\n[gaits.walk]\nsped = [0.5, 1.0]\n",
+                 r"gaits\.walk: unknown key\(s\) \['sped'\]; allowed: duty, phase, .*"
+                 r"\(did you mean 'speed'\?\)", id="unknown-gait-key"),
+    pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trot"]\n\n[gaits.trott]\n'
+                 "speed = [1.0, 2.0]\n",
+                 r"\[gaits\.trott\] overrides a gait that is not one of the character's gaits "
+                 r".*; allowed: walk, trot \(did you mean 'trot'\?\)",
+                 id="override-of-a-missing-gait"),
+    pytest.param(BASE + "\n[gaits.trott]\nspeed = [1.0, 2.0]\n",
+                 r"\[gaits\.trott\] overrides a gait that is not one of the character's gaits "
+                 r".*; allowed: walk, amble, rack, trot, .*\(did you mean 'trot'\?\)",
+                 id="override-of-a-gait-the-shared-table-lacks"),
+    pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trott"]\n',
+                 r"locomotion\.gaits names 'trott', which is not a gait of the shared gait "
+                 r"table; known: walk, .* \(did you mean 'trot'\?\)", id="unknown-gait-name"),
+    # locomotion values
+    pytest.param(BASE + '\n[locomotion]\ngaits = ["walk", "trot"]\nauto = ["walk", "canter"]\n',
+                 r"locomotion\.auto names 'canter', which is not among locomotion\.gaits",
+                 id="auto-gait-not-among-gaits"),
+    pytest.param(BASE + "\n[locomotion]\nmax_turn_rate_deg_s = -30.0\n",
+                 r"locomotion\.max_turn_rate_deg_s = -30\.0 is out of range; allowed 0 <",
+                 id="negative-turn-rate"),
+    # geometry: zero-length bones
+    pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.0, 0.0, 0.0]")),
+                 r"joints\[7\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_knee' sits on its "
+                 r"parent 'LH_hip', a bone of zero length", id="zero-length-bone"),
+    pytest.param(edited("end = [0.0, 0.0, 0.1]", "end = [0.0, 0.0, 0.0]"),
+                 r"joints\[5\]\.end = \[0\.0, 0\.0, 0\.0\]: the bone tip of 'head' has zero "
+                 r"length", id="zero-length-end-tip"),
+    pytest.param(edited("offset = [0.0, 0.0, 0.1] },\n  { name = \"s2\"",
+                        "offset = [0.0, nan, 0.1] },\n  { name = \"s2\""),
+                 r"joints\[1\]\.offset must be a list of three numbers", id="offset-not-finite"),
+    # geometry: legs that cannot stand at the rest height
+    pytest.param(edited('"LH_paw", parent = "LH_hock", offset = [0.0, -0.1, 0.0]',
+                        '"LH_paw", parent = "LH_hock", offset = [0.0, -0.3, 0.0]'),
+                 r"legs\.LH: over-long leg: at rest its foot 'LH_paw' is 0\.2 m below the "
+                 r"ground .* shorten the leg or raise the root by 0\.2 m", id="over-long-leg"),
+    pytest.param(edited('"LF_paw", parent = "LF_wrist", offset = [0.0, -0.05, 0.0]',
+                        '"LF_paw", parent = "LF_wrist", offset = [0.0, -0.01, 0.0]'),
+                 r"legs\.LF: leg too short: at rest its foot 'LF_paw' is 0\.04 m above the "
+                 r"ground", id="leg-too-short"),
+    pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.02, -0.25, 0.05]")),
+                 r"legs\.LH\.chain: joints below the top of a leg lie in the leg's plane "
+                 r"\(offset x = 0\); not so for LH_knee", id="leg-out-of-its-plane"),
+    pytest.param(edited('ik = "LF_shoulder"\nbend = "back"', 'ik = "LF_shoulder"\nbend = "forward"'),
+                 r"legs\.LF\.bend = \"forward\": at rest 'LF_elbow' lies 0\.0\d+ m behind the "
+                 r"line 'LF_shoulder' -> 'LF_wrist'; it must lie forward of it",
+                 id="pair-bent-against-its-bend"),
+    pytest.param(edited(LH_HIP, LH_HIP.replace("[0.05, 0.0, 0.0]", "[0.05, 0.0, 0.6]")),
+                 r"legs: the fore legs' IK joints must lie ahead \(\+Z\) of the hind legs'",
+                 id="fore-legs-behind-hind-legs"),
+    # missing joints
+    pytest.param(edited('head = "head"', 'head = "skull"'),
+                 r"chains\.head: no joint named 'skull'", id="missing-head-joint"),
+    pytest.param(edited('ik = "LH_hip"', 'ik = "LH_pelvis"'),
+                 r"legs\.LH\.ik: 'LH_pelvis' is not in the leg's chain", id="ik-joint-not-in-chain"),
+    pytest.param(BASE.replace("mirror_left_legs = true\n", ""),
+                 r"missing table \[legs\.RF\]", id="right-legs-without-mirroring"),
+    # joint-limit ranges
+    pytest.param(edited("LF_elbow = [-100.0, 20.0]", "LF_elbow = [10.0, 50.0]"),
+                 r"limits\.LF_elbow = \[10\.0, 50\.0\]: the range must hold the rest pose "
+                 r"\(0 deg\)", id="limits-exclude-the-rest-pose"),
+    pytest.param(edited("LF_elbow = [-100.0, 20.0]", "LF_elbow = [-200.0, 20.0]"),
+                 r"limits\.LF_elbow = \[-200\.0, 20\.0\]: .* within -180 to 180 deg",
+                 id="limits-beyond-a-half-turn"),
 ])
 def test_malformed_file_raises_input_error_naming_file_and_key(tmp_path, text, message):
     path = write(tmp_path, text)

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import pytest
 
+from quadsim.commands import Command, Script
 from quadsim.config import RunConfig, load_config, with_overrides
 from quadsim.errors import InputError
 from quadsim.frames import KMH, MPH
-from quadsim.commands import Command, Script
 from quadsim.skeleton.character import characters_dir, load_character
 
 REPO = Path(__file__).resolve().parents[1]
@@ -181,6 +181,10 @@ BAD = {
                               r"command\[0\] gives turn_rate_deg_s and heading_deg"),
     "leap not a bool": (HEAD + WALK + "leap = 1\n", r"`command\[0\]\.leap`.*true or false"),
     "toml syntax": (HEAD + "[[command]]\nat = 0.0\nspeed = \n", r"not valid TOML.*line 6"),
+    "shorter than one frame": (HEAD.replace("10.0", "0.01") + WALK,
+                               (r"`duration` = 0\.01 s at `fps` = 60 gives less than one frame "
+                                r"\(0\.6\); a run needs duration \* fps >= 1, here a duration of "
+                                r"at least 0\.01667 s")),
 }
 
 
@@ -239,6 +243,12 @@ BAD_FLAGS = {
     "seconds": ({"duration": 0.0}, r"`--seconds` = 0 is out of range"),
     "fps": ({"fps": 2000}, r"`--fps` = 2000 is out of range"),
     "units": ({"units": "ft"}, r"`--units` = 'ft'"),
+    "seconds below one frame": ({"duration": 0.01},
+                                (r"`--seconds` = 0\.01 s at the config's `fps` = 60 gives "
+                                 r"less than one frame")),
+    "seconds and fps below one frame": ({"duration": 0.5, "fps": 1},
+                                        (r"`--seconds` = 0\.5 s at `--fps` = 1 gives less "
+                                         r"than one frame")),
 }
 
 
@@ -246,6 +256,74 @@ BAD_FLAGS = {
 def test_bad_override_names_the_flag(config, kw, pattern):
     with pytest.raises(InputError, match=pattern):
         with_overrides(config, **kw)
+
+
+# ------------------------------------------------------------ at least one frame
+def test_one_frame_is_enough(tmp_path):
+    cfg = load_config(write(tmp_path, HEAD.replace("10.0", "0.5").replace("60", "2") + WALK))
+    assert cfg.n_frames == 1
+    assert with_overrides(cfg, duration=1.0, fps=1).n_frames == 1
+
+
+def test_fps_override_below_one_frame_names_the_config_duration(tmp_path):
+    cfg = load_config(write(tmp_path, HEAD.replace("10.0", "0.5") + WALK))
+    with pytest.raises(InputError, match=r"the config's `duration` = 0\.5 s at `--fps` = 1 "
+                                         r"gives less than one frame"):
+        with_overrides(cfg, fps=1)
+
+
+def test_a_run_config_shorter_than_one_frame_cannot_be_made(tmp_path):
+    """However it is built (a file, overrides, or directly), a RunConfig has a frame."""
+    cfg = load_config(write(tmp_path, HEAD + WALK))
+    with pytest.raises(InputError, match=r"`duration` = 0\.001 s at `fps` = 60 gives less"):
+        RunConfig(character="leopard", duration=0.001, fps=60.0, seed=0, mode="procedural",
+                  units="m", commands=cfg.commands)
+
+
+def test_validate_and_run_refuse_a_config_shorter_than_one_frame(tmp_path, capsys):
+    from quadsim.cli import main
+
+    short = write(tmp_path, HEAD.replace("10.0", "0.001") + WALK, "short.toml")
+    out = tmp_path / "short.bvh"
+    assert main(["validate", str(short)]) == 2
+    assert main(["run", str(short), "--out", str(out)]) == 2
+    good = write(tmp_path, HEAD + WALK, "good.toml")
+    assert main(["run", str(good), "--seconds", "0.001", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("gives less than one frame") == 3
+    assert "`--seconds` = 0.001 s at the config's `fps` = 60" in err
+    assert not out.exists()
+
+
+# ------------------------------------------------------------ a bad character file
+LEOPARD_HOCK = '{ name = "LH_hock", parent = "LH_knee", offset = [0.0, -0.23, -0.12] }'
+LEOPARD_PAW = '{ name = "LH_paw", parent = "LH_hock", offset = [0.0, -0.17, 0.01]'
+
+
+@pytest.mark.parametrize("old, new, pattern", [
+    pytest.param(LEOPARD_HOCK, LEOPARD_HOCK.replace("[0.0, -0.23, -0.12]", "[0.0, 0.0, 0.0]"),
+                 r"joints\[\d+\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_hock' sits on its "
+                 r"parent 'LH_knee', a bone of zero length", id="zero-length-bone"),
+    pytest.param(LEOPARD_PAW, LEOPARD_PAW.replace("-0.17", "-0.57"),
+                 r"legs\.LH: over-long leg: at rest its foot 'LH_paw' is 0\.4 m below the ground",
+                 id="over-long-leg"),
+    pytest.param("max_turn_rate_deg_s", "max_turn_rate_degs",
+                 r"\[locomotion\]: unknown key\(s\) \['max_turn_rate_degs'\]",
+                 id="misspelt-key"),
+])
+def test_validate_catches_a_bad_character_file(tmp_path, capsys, old, new, pattern):
+    """A config naming a broken character file fails `validate` with the
+    character file and its field, before any run reaches a kernel."""
+    from quadsim.cli import main
+
+    text = (characters_dir() / "leopard.toml").read_text(encoding="utf-8")
+    assert old in text, f"test setup: {old!r} is not in leopard.toml"
+    write(tmp_path, text.replace(old, new, 1), "broken_leopard.toml")
+    path = write(tmp_path, HEAD.replace('"leopard"', '"broken_leopard.toml"') + WALK)
+    with pytest.raises(InputError, match=r"`character`: .*broken_leopard\.toml: " + pattern):
+        load_config(path)
+    assert main(["validate", str(path)]) == 2
+    assert "broken_leopard.toml" in capsys.readouterr().err
 
 
 # ------------------------------------------------------------------ data mode gaits

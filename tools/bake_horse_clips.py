@@ -31,7 +31,7 @@ Each clip's manifest ``source`` names its overrides.
 
 Usage::
 
-    python tools/bake_horse_clips.py [--out characters/horse/clips]
+    python tools/bake_horse_clips.py [--out quadsim/data/characters/horse/clips]
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from quadsim.horse.database import cut_cycles, looped, sample_motion
 from quadsim.io.bvh import write_bvh
 from quadsim.commands import Command
 from quadsim.locomotion.controller import simulate
-from quadsim.skeleton.character import load_character
+from quadsim.skeleton.character import characters_dir, load_character
 from quadsim.skeleton.motion import Motion
 
 FPS = 60.0
@@ -181,8 +181,7 @@ def bake(out: Path) -> list[str]:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--out", default=str(Path(__file__).resolve().parents[1]
-                                        / "characters" / "horse" / "clips"))
+    p.add_argument("--out", default=str(characters_dir() / "horse" / "clips"))
     a = p.parse_args(argv)
     for line in bake(Path(a.out)):
         print(line)

@@ -1,6 +1,7 @@
 """Characters as data: a skeleton plus the named chains locomotion needs.
 
-A character file (TOML, in ``characters/``) holds:
+A character file (TOML; the shipped ones are in the package data,
+:func:`characters_dir`) holds:
 
 ``[character]``
     ``id``, ``name``, ``species``, ``mass`` (kg), ``sources`` (list of str).
@@ -20,42 +21,83 @@ A character file (TOML, in ``characters/``) holds:
     (the pair is that joint and the next two in the chain); ``bend``: which way
     the middle joint of the pair points, ``"forward"`` (a knee or stifle) or
     ``"back"`` (an elbow).
+    ``pre_gain``, ``post_gain`` (optional, 0 to 1): see :class:`LegSpec`.
 ``[limits]``
     Optional ``joint = [min_deg, max_deg]``: allowed flexion about the joint's
     lateral (+X) axis relative to rest, used to keep legs from bending the
-    wrong way.
-``[locomotion]`` and ``[gaits.<name>]``
-    Gait selection and per-character gait overrides, read by
-    :mod:`quadsim.locomotion.gaits`.
+    wrong way; ``-180 <= min_deg <= 0 <= max_deg <= 180``.
+``[locomotion]``
+    Optional: ``gaits`` and ``auto`` (gait names; ``auto``, chosen by speed,
+    is a subset of ``gaits``), ``max_turn_rate_deg_s``, ``spine_flex_deg``,
+    ``spine_extend_deg``, ``spine_slow_scale``, ``min_turn_radius_body_lengths``
+    (:class:`~quadsim.skeleton.character_file.LocomotionTable`).
+``[gaits.<name>]``
+    Per-character overrides of the shared gait table, read by
+    :mod:`quadsim.locomotion.gaits` (keys:
+    :data:`~quadsim.skeleton.character_file.GAIT_FIELDS`).
+
+Loading reads the file into frozen dataclasses
+(:mod:`quadsim.skeleton.character_file`: every key at every level checked,
+no zero-length bone, limit ranges holding the rest pose) and then builds the
+:class:`Character`, checking what needs the whole skeleton: chains that are
+chains, legs in their planes, each foot on the ground at rest (a leg neither
+over-long nor too short for its rest height), each IK pair bent the way its
+``bend`` says, the fore legs ahead of the hind legs. Any failure is an
+:class:`~quadsim.errors.InputError` naming the file and the field.
 """
 
 from __future__ import annotations
 
+import itertools
+import math
 import os
 import tomllib
-from dataclasses import dataclass, field
-from functools import cached_property
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from functools import cached_property, lru_cache
+from importlib import resources
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
 from quadsim.errors import InputError
 from quadsim.frames import LEGS, Y
+from quadsim.skeleton.character_file import (
+    CharacterFile,
+    LegEntry,
+    LocomotionTable,
+    character_file_from_dict,
+    locomotion_table,
+    read_character_file,
+)
 from quadsim.skeleton.skeleton import Skeleton
 
 _MIRROR = {"LF_": "RF_", "LH_": "RH_"}
 
 
 def characters_dir() -> Path:
-    """The folder of shipped character files.
+    """The folder of shipped character files, gait tables and clip databases.
 
     ``$QUADSIM_CHARACTERS`` overrides it; otherwise the ``characters/`` folder
-    beside the installed ``quadsim`` package (the repository root).
+    of the package data (``quadsim/data/characters``), found through
+    :mod:`importlib.resources` so that it works from a source checkout, an
+    editable install and an installed wheel alike.
+
+    Returns
+    -------
+    Path
+        The folder; it holds ``<id>.toml`` per character, ``gaits.toml`` and
+        ``<id>/clips/`` per clip database.
     """
     env = os.environ.get("QUADSIM_CHARACTERS")
     if env:
         return Path(env)
-    return Path(__file__).resolve().parents[2] / "characters"
+    folder = resources.files("quadsim.data") / "characters"
+    if not isinstance(folder, os.PathLike):
+        raise InputError("quadsim's data folder is not on the file system (a zipped "
+                         "install?); install quadsim as a plain wheel or folder")
+    return Path(folder)
 
 
 @dataclass(frozen=True)
@@ -111,12 +153,16 @@ class Character:
     head : int
     limits : dict of int to (float, float)
         Flexion limits (radians) about the joint's lateral axis, by joint index.
-    locomotion : dict
-        The raw ``[locomotion]`` table.
-    gait_overrides : dict
-        The raw ``[gaits.*]`` tables.
+    locomotion : LocomotionTable
+        The ``[locomotion]`` table: typed attributes, and a read-only mapping
+        of the keys the file gives (``locomotion.get("auto")``).
+    gait_overrides : mapping of str to mapping
+        The ``[gaits.*]`` tables (read-only), by gait name.
     sources : tuple of str
     path : Path or None
+        The character file, when read from one.
+    file : CharacterFile or None
+        The file as written (before mirroring), when read from one.
     """
 
     id: str
@@ -130,10 +176,20 @@ class Character:
     head: int
     tail: np.ndarray
     limits: dict = field(default_factory=dict)
-    locomotion: dict = field(default_factory=dict)
-    gait_overrides: dict = field(default_factory=dict)
+    locomotion: LocomotionTable = field(default_factory=LocomotionTable)
+    gait_overrides: Mapping = field(default_factory=dict)
     sources: tuple[str, ...] = ()
     path: Path | None = None
+    file: CharacterFile | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.locomotion, LocomotionTable):  # a plain dict
+            object.__setattr__(self, "locomotion",
+                               locomotion_table(dict(self.locomotion), f"<{self.id}>"))
+        over = self.gait_overrides
+        if not isinstance(over, MappingProxyType):
+            object.__setattr__(self, "gait_overrides", MappingProxyType(
+                {k: MappingProxyType(dict(v)) for k, v in over.items()}))
 
     # -------------------------------------------------------- derived sizes
     @cached_property
@@ -179,7 +235,7 @@ class Character:
 
 # ---------------------------------------------------------------- loading
 def list_characters() -> list[str]:
-    """Identifiers of the shipped characters (the ``*.toml`` files in ``characters/``).
+    """Identifiers of the shipped characters (the ``*.toml`` files in :func:`characters_dir`).
 
     Other data files in that folder are skipped: ``gaits.toml`` (the shared
     gait tables) and any valid TOML file without a ``[character]`` table. A
@@ -237,33 +293,128 @@ def _cached_load(path: str) -> Character:
 
 
 def parse_character_file(path: Path) -> Character:
-    """Parse and validate a character file (see the module docstring)."""
-    try:
-        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such character file") from None
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(f"{path}: not valid TOML ({e})") from None
-    return character_from_dict(data, str(path))
+    """Read, check and build a character file (see the module docstring).
 
-
-def _need(d: dict, key: str, where: str, kind=None):
-    if key not in d:
-        raise InputError(f"{where}: missing key `{key}`")
-    v = d[key]
-    if kind is not None and not isinstance(v, kind):
-        raise InputError(f"{where}: `{key}` must be {kind.__name__}, got {type(v).__name__}")
-    return v
+    Raises
+    ------
+    InputError
+        Naming the file and the field (:func:`read_character_file`,
+        :func:`build_character`).
+    """
+    return build_character(read_character_file(path, _shared_gait_names()))
 
 
 def character_from_dict(data: dict, src: str = "<character>") -> Character:
-    """Build a :class:`Character` from parsed TOML data."""
-    meta = _need(data, "character", src, dict)
-    joints = _need(data, "joints", src, list)
+    """Build a :class:`Character` from parsed TOML data; ``src`` names it in messages."""
+    return build_character(character_file_from_dict(data, src, _shared_gait_names()))
+
+
+def _shared_gait_names() -> tuple[str, ...] | None:
+    """The gaits of the shared table ``gaits.toml``, or None when it cannot be read
+    (:mod:`quadsim.locomotion.gaits` reports that when it loads the table)."""
+    path = characters_dir() / "gaits.toml"
+    try:
+        return _gait_names_of(str(path), path.stat().st_mtime_ns)
+    except OSError:
+        return None
+
+
+@lru_cache(maxsize=8)
+def _gait_names_of(path: str, mtime_ns: int) -> tuple[str, ...] | None:
+    try:
+        data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return None
+    return tuple(k for k, v in data.items() if isinstance(v, dict))
+
+
+def build_character(cf: CharacterFile) -> Character:
+    """Build a :class:`Character` from a checked :class:`CharacterFile`.
+
+    Applies ``mirror_left_legs``, resolves joint names to indices and checks
+    what needs the whole skeleton: the chains are chains, every leg lies in
+    its plane, stands with its foot on the ground (y = 0) at rest, bends its
+    IK pair the way ``bend`` says, and the fore legs are ahead of the hind
+    legs (see :func:`_check_stance`).
+
+    Raises
+    ------
+    InputError
+        Naming ``cf.source`` and the field.
+    """
+    src = cf.source
+    names, parents, offsets, ends = _joint_tables(cf)
+    try:
+        skel = Skeleton(tuple(names), np.array(parents), np.array(offsets), ends)
+    except ValueError as e:
+        raise InputError(f"{src}: {e}") from None
+    joints = _Joints(names, parents)
+
+    c = cf.chains
+    spine = [joints.index(n, f"{src}: chains.spine") for n in c.spine]
+    if len(spine) < 5:
+        raise InputError(f"{src}: chains.spine needs the pelvis and at least four more joints")
+    if spine[0] != 0:
+        raise InputError(f"{src}: chains.spine must start at the root joint {names[0]!r}")
+    limits = {joints.index(n, f"{src}: limits"): (np.radians(lo), np.radians(hi))
+              for n, (lo, hi) in cf.limits.items()}
+    meta = cf.character
+    ch = Character(
+        id=meta.id, name=meta.name, species=meta.species, mass=meta.mass, skeleton=skel,
+        legs=tuple(_leg_spec(cf, leg, joints) for leg in LEGS),
+        spine=joints.chain(c.spine, f"{src}: chains.spine"),
+        neck=joints.chain(c.neck, f"{src}: chains.neck"),
+        head=joints.index(c.head, f"{src}: chains.head"),
+        tail=joints.chain(c.tail, f"{src}: chains.tail"),
+        limits=limits, locomotion=cf.locomotion, gait_overrides=cf.gaits,
+        sources=meta.sources, path=Path(src) if not src.startswith("<") else None, file=cf)
+    _check_stance(ch, src)
+    return ch
+
+
+class _Joints:
+    """Joint names to indices, for building a character (messages name the field)."""
+
+    def __init__(self, names: list[str], parents: list[int]):
+        self.names, self.parents = names, parents
+        self._index = {n: k for k, n in enumerate(names)}
+
+    def index(self, name: str, where: str) -> int:
+        if name not in self._index:
+            raise InputError(f"{where}: no joint named {name!r}")
+        return self._index[name]
+
+    def chain(self, joint_names, where: str) -> np.ndarray:
+        """Indices of a chain, each joint the child of the one before, shape (n,)."""
+        ch = np.array([self.index(n, where) for n in joint_names], dtype=int)
+        for a, b in itertools.pairwise(ch):
+            if self.parents[b] != a:
+                raise InputError(f"{where}: {self.names[b]!r} is not a child of "
+                                 f"{self.names[a]!r}")
+        return ch
+
+
+def _leg_spec(cf: CharacterFile, leg: str, joints: _Joints) -> LegSpec:
+    t = _leg_entry(cf, leg)
+    where = f"{cf.source}: legs.{leg}"
+    chain = joints.chain(t.chain, f"{where}.chain")
+    if t.ik not in t.chain:
+        raise InputError(f"{where}.ik: {t.ik!r} is not in the leg's chain")
+    k = t.chain.index(t.ik)
+    if k + 2 >= len(t.chain):
+        raise InputError(f"{where}.ik: the two-bone pair starting at {t.ik!r} "
+                         "needs two more joints below it in the chain")
+    gains = {g: getattr(t, g) for g in ("pre_gain", "post_gain") if getattr(t, g) is not None}
+    return LegSpec(leg, chain, k, 1.0 if t.bend == "forward" else -1.0, **gains)
+
+
+def _joint_tables(cf: CharacterFile):
+    """Names, parent indices, offsets (J, 3) and end sites, mirrored legs added."""
+    src = cf.source
     names: list[str] = []
     parents: list[int] = []
-    offsets: list[list[float]] = []
-    ends: dict[str, list[float]] = {}
+    offsets: list[tuple[float, float, float]] = []
+    ends: dict[str, tuple[float, float, float]] = {}
     index: dict[str, int] = {}
 
     def add(name, parent, offset, end):
@@ -285,129 +436,89 @@ def character_from_dict(data: dict, src: str = "<character>") -> Character:
         if end is not None:
             ends[name] = end
 
-    def vec(v, where):
-        if (not isinstance(v, list) or len(v) != 3
-                or not all(isinstance(x, (int, float)) for x in v)):
-            raise InputError(f"{where} must be a list of three numbers (metres)")
-        return [float(x) for x in v]
+    for j in cf.joints:
+        add(j.name, j.parent, j.offset, j.end)
+    if not cf.mirror_left_legs:
+        return names, parents, offsets, ends
+    for j in cf.joints:
+        pre = j.name[:3]
+        if pre in _MIRROR:
+            mpar = _MIRROR[j.parent[:3]] + j.parent[3:] if j.parent[:3] in _MIRROR else j.parent
+            o, e = j.offset, j.end
+            add(_MIRROR[pre] + j.name[3:], mpar, (-o[0], o[1], o[2]),
+                None if e is None else (-e[0], e[1], e[2]))
+    return names, parents, offsets, ends
 
-    for k, j in enumerate(joints):
-        where = f"{src}: joints[{k}]"
-        if not isinstance(j, dict):
-            raise InputError(f"{where} must be a table {{ name, parent, offset }}")
-        unknown = set(j) - {"name", "parent", "offset", "end"}
-        if unknown:
-            raise InputError(f"{where}: unknown key(s) {sorted(unknown)}; "
-                             "allowed: name, parent, offset, end")
-        name = _need(j, "name", where, str)
-        parent = _need(j, "parent", where, str)
-        off = vec(_need(j, "offset", where), f"{where}.offset")
-        end = vec(j["end"], f"{where}.end") if "end" in j else None
-        add(name, parent, off, end)
 
-    if data.get("mirror_left_legs", False):
-        for name in names:
-            pre = name[:3]
-            if pre in _MIRROR:
-                j = index[name]
-                par = names[parents[j]] if parents[j] >= 0 else ""
-                mpar = _MIRROR[par[:3]] + par[3:] if par[:3] in _MIRROR else par
-                o = offsets[j]
-                e = ends.get(name)
-                add(_MIRROR[pre] + name[3:], mpar, [-o[0], o[1], o[2]],
-                    None if e is None else [-e[0], e[1], e[2]])
+def _leg_entry(cf: CharacterFile, leg: str) -> LegEntry:
+    """The leg's table, or the mirror of its left twin's (``mirror_left_legs``)."""
+    if leg in cf.legs:
+        return cf.legs[leg]
+    twin = {"RF": "LF", "RH": "LH"}.get(leg)
+    if twin is None or not cf.mirror_left_legs or twin not in cf.legs:
+        raise InputError(f"{cf.source}: missing table [legs.{leg}]")
+    t = cf.legs[twin]
+    prefix = twin + "_"
+    return replace(t, chain=tuple(leg + "_" + n[3:] if n[:3] == prefix else n for n in t.chain),
+                   ik=leg + "_" + t.ik[3:])
 
-    try:
-        skel = Skeleton(tuple(names), np.array(parents), np.array(offsets), ends)
-    except ValueError as e:
-        raise InputError(f"{src}: {e}") from None
 
-    def idx(name, where):
-        if name not in index:
-            raise InputError(f"{where}: no joint named {name!r}")
-        return index[name]
+#: How far (m) a foot may rest off the ground (y = 0).
+GROUND_TOLERANCE = 1e-6
+#: Smallest bend of a leg's IK pair at rest, as a fraction of the pair's length:
+#: a straighter pair leaves the IK no room to shorten the leg or no fold direction.
+MIN_PAIR_BEND = 0.01
 
-    chains = _need(data, "chains", src, dict)
-    spine = np.array([idx(n, f"{src}: chains.spine") for n in _need(chains, "spine", src, list)])
-    if len(spine) < 5:
-        raise InputError(f"{src}: chains.spine needs the pelvis and at least four more joints")
-    if spine[0] != 0:
-        raise InputError(f"{src}: chains.spine must start at the root joint {names[0]!r}")
-    neck = np.array([idx(n, f"{src}: chains.neck") for n in chains.get("neck", [])], dtype=int)
-    head = idx(_need(chains, "head", src, str), f"{src}: chains.head")
-    tail = np.array([idx(n, f"{src}: chains.tail") for n in chains.get("tail", [])], dtype=int)
-    for nm, ch in (("spine", spine), ("neck", neck), ("tail", tail)):
-        for a, b in zip(ch[:-1], ch[1:]):
-            if parents[b] != a:
-                raise InputError(f"{src}: chains.{nm}: {names[b]!r} is not a child of {names[a]!r}")
 
-    legs_t = _need(data, "legs", src, dict)
-    legs = []
-    for leg in LEGS:
-        if leg not in legs_t:
-            mirror_of = {"RF": "LF", "RH": "LH"}.get(leg)
-            if mirror_of and data.get("mirror_left_legs", False) and mirror_of in legs_t:
-                t = dict(legs_t[mirror_of])
-                t["chain"] = [leg + "_" + n[3:] if n[:3] == mirror_of + "_" else n
-                              for n in t["chain"]]
-                t["ik"] = leg + "_" + t["ik"][3:]
-            else:
-                raise InputError(f"{src}: missing table [legs.{leg}]")
-        else:
-            t = legs_t[leg]
-        where = f"{src}: legs.{leg}"
-        chain_names = _need(t, "chain", where, list)
-        chain = np.array([idx(n, f"{where}.chain") for n in chain_names])
-        for a, b in zip(chain[:-1], chain[1:]):
-            if parents[b] != a:
-                raise InputError(f"{where}.chain: {names[b]!r} is not a child of {names[a]!r}")
-        ik = _need(t, "ik", where, str)
-        if ik not in chain_names:
-            raise InputError(f"{where}.ik: {ik!r} is not in the leg's chain")
-        k = chain_names.index(ik)
-        if k + 2 >= len(chain_names):
-            raise InputError(f"{where}.ik: the two-bone pair starting at {ik!r} "
-                             "needs two more joints below it in the chain")
-        bend = _need(t, "bend", where, str)
-        if bend not in ("forward", "back"):
-            raise InputError(f"{where}.bend must be \"forward\" or \"back\", got {bend!r}")
-        gains = {}
-        for key in ("pre_gain", "post_gain"):
-            if key in t:
-                g = t[key]
-                if not isinstance(g, (int, float)) or not 0.0 <= g <= 1.0:
-                    raise InputError(f"{where}.{key} must be a number from 0 to 1, got {g!r}")
-                gains[key] = float(g)
-        unknown = set(t) - {"chain", "ik", "bend", "pre_gain", "post_gain"}
-        if unknown:
-            raise InputError(f"{where}: unknown key(s) {sorted(unknown)}; allowed: chain, ik, "
-                             "bend, pre_gain, post_gain")
-        legs.append(LegSpec(leg, chain, k, 1.0 if bend == "forward" else -1.0, **gains))
+def _check_stance(ch: Character, src: str) -> None:
+    """The geometry the engines rely on, checked on the built character.
 
-    limits = {}
-    for n, lim in data.get("limits", {}).items():
-        j = idx(n, f"{src}: limits")
-        if (not isinstance(lim, list) or len(lim) != 2
-                or not all(isinstance(x, (int, float)) for x in lim) or not lim[0] < lim[1]):
-            raise InputError(f"{src}: limits.{n} must be [min_deg, max_deg] with min < max")
-        limits[j] = (np.radians(lim[0]), np.radians(lim[1]))
-    mass = _need(meta, "mass", f"{src}: [character]")
-    if not isinstance(mass, (int, float)) or not mass > 0:
-        raise InputError(f"{src}: character.mass must be a positive number (kg), got {mass!r}")
-    return Character(
-        id=str(_need(meta, "id", f"{src}: [character]", str)),
-        name=str(meta.get("name", meta["id"])),
-        species=str(meta.get("species", "")),
-        mass=float(mass),
-        skeleton=skel,
-        legs=tuple(legs),
-        spine=spine,
-        neck=neck,
-        head=head,
-        tail=tail,
-        limits=limits,
-        locomotion=dict(data.get("locomotion", {})),
-        gait_overrides=dict(data.get("gaits", {})),
-        sources=tuple(meta.get("sources", ())),
-        path=Path(src) if not src.startswith("<") else None,
-    )
+    - Below its top joint a leg lies in its plane (zero X offsets).
+    - Each foot contact joint rests on the ground, ``|y| <= GROUND_TOLERANCE``:
+      a leg longer than its top's height (foot below ground) or shorter (foot
+      in the air) cannot stand at the rest height, and the stance measurement
+      finds no reach at all (the division by zero this replaces).
+    - The IK pair's top is above the ground, and its middle joint bends the
+      way ``bend`` says by at least ``MIN_PAIR_BEND`` of the pair's length.
+    - The fore legs' IK joints are ahead (+Z) of the hind legs' (a positive
+      body length, which the turning divides by).
+    """
+    sk = ch.skeleton
+    P = sk.rest_positions
+    names = sk.names
+    for leg in ch.legs:
+        where = f"{src}: legs.{leg.name}"
+        off = sk.offsets[leg.chain[1:]]
+        side = [names[j] for j, o in zip(leg.chain[1:], off) if abs(o[0]) > 1e-9]
+        if side:
+            raise InputError(f"{where}.chain: joints below the top of a leg lie in the leg's "
+                             f"plane (offset x = 0); not so for {', '.join(side)}")
+        foot = leg.foot
+        y = float(P[foot, Y])
+        if abs(y) > GROUND_TOLERANCE:
+            top = leg.chain[0]
+            kind, fix = (("over-long leg", "shorten the leg or raise the root") if y < 0
+                         else ("leg too short", "lengthen the leg or lower the root"))
+            raise InputError(
+                f"{where}: {kind}: at rest its foot {names[foot]!r} is {abs(y):.4g} m "
+                f"{'below' if y < 0 else 'above'} the ground (y = {y:.4g} m, from "
+                f"{names[top]!r} at y = {P[top, Y]:.4g} m); a foot stands on the ground "
+                f"(y = 0) at rest: {fix} by {abs(y):.4g} m")
+        a, b, d = leg.chain[leg.ik_start:leg.ik_start + 3]
+        if not P[a, Y] > GROUND_TOLERANCE:
+            raise InputError(f"{where}.ik: the pair's top {names[a]!r} is at y = "
+                             f"{P[a, Y]:.4g} m, not above the ground")
+        u, w = P[d] - P[a], P[b] - P[a]
+        length = float(np.linalg.norm(P[b] - P[a]) + np.linalg.norm(P[d] - P[b]))
+        # how far b lies forward (+Z) of the line a -> d, in the (Z, Y) plane
+        fwd = float((u[2] * w[1] - u[1] * w[2]) / max(math.hypot(u[2], u[1]), 1e-12))
+        if leg.bend * fwd < MIN_PAIR_BEND * length:
+            want = "forward" if leg.bend > 0 else "back"
+            raise InputError(
+                f"{where}.bend = \"{want}\": at rest {names[b]!r} lies {abs(fwd):.4g} m "
+                f"{'forward of' if fwd > 0 else 'behind'} the line {names[a]!r} -> "
+                f"{names[d]!r}; it must lie {want} of it by at least {MIN_PAIR_BEND:g} of "
+                f"the pair's length ({MIN_PAIR_BEND * length:.3g} m)")
+    if not ch.body_length > 0.0:
+        raise InputError(f"{src}: legs: the fore legs' IK joints must lie ahead (+Z) of the "
+                         f"hind legs' at rest; body length {ch.body_length:.4g} m")
