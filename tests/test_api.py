@@ -67,7 +67,7 @@ def test_save_picks_the_format_from_the_extension(tmp_path):
 
 
 def test_a_run_shorter_than_one_frame_is_refused():
-    with pytest.raises(InputError, match="no frame"):
+    with pytest.raises(InputError, match="less than one frame"):
         quadsim.run("leopard", seconds=0.005)
 
 
