@@ -204,6 +204,9 @@ def _motion_source(source: str, seconds: float | None, units: str = "m",
 
 
 def cmd_diagram(args) -> int:
+    from quadsim._optional import require_for
+
+    require_for("diagram")
     from quadsim.viz.diagram import FORMATS, gait_diagram
 
     out = Path(args.out) if args.out else Path("out") / f"{Path(args.source).stem}-diagram.png"
@@ -221,6 +224,9 @@ def cmd_diagram(args) -> int:
 
 
 def cmd_preview(args) -> int:
+    from quadsim._optional import require_for
+
+    require_for("preview")
     from quadsim.viz.scene import parse_size
 
     try:
