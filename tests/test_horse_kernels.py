@@ -17,13 +17,8 @@ import pytest
 
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.legs import two_bone
-from quadsim.horse.place_kernel import (
-    fk_row,
-    ground_height,
-    sample_row,
-    stance_row,
-    two_bone_row,
-)
+from quadsim.horse.place_kernel import ground_height, sample_row, stance_row
+from quadsim.kinematics.chains import fk_row, two_bone_row
 from quadsim.horse.root import clip_stance_cycles, in_stance
 from quadsim.horse.slope import Ground
 from quadsim.skeleton.fk import forward_kinematics

@@ -22,7 +22,7 @@ from quadsim.analysis.metrics import (
 )
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.legs import place_feet, two_bone
-from quadsim.horse.place_kernel import two_bone_row
+from quadsim.kinematics.chains import two_bone_row
 from quadsim.commands import Command, Script
 from quadsim.errors import QuadsimClampWarning
 from quadsim.skeleton.fk import forward_kinematics

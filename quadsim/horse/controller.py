@@ -92,16 +92,8 @@ from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from . import turning
 from .database import ClipDatabase, load_default_database
-from .place_kernel import (
-    N_SCALARS,
-    S_PITCH,
-    S_SAG,
-    SCALARS,
-    place_row,
-    sample_row,
-    slerp_into,
-    stance_row,
-)
+from .bundles import PlaceFrame, PlaceRig, PlaceState, PlaceTuning, new_placed_pose
+from .place_kernel import place_row, sample_row, slerp_into, stance_row
 from .root import FLIGHT, clip_stance_cycles
 from .slope import Ground
 from .speed import HOYT, expand
@@ -255,21 +247,19 @@ class HorseDataController:
         self._rest_height = float(rest[0, 1] - rest[self._feet, 1].mean())
         # the compiled placement's constants and state (quadsim.horse.place_kernel)
         J = skel.n_joints
-        self._parents = np.ascontiguousarray(skel.parents, dtype=np.int64)
-        self._offsets = np.ascontiguousarray(skel.offsets, dtype=float)
-        self._ints = np.concatenate([[len(self.lead.chain)], self.lead.chain, self._feet,
-                                     *pair]).astype(np.int64)
-        self._scal = np.zeros(N_SCALARS)
-        for name, value in (("centre", self._centre), ("hind", self._girdles[0]),
-                            ("fore", self._girdles[1]), ("look_distance", LOOK_DISTANCE),
-                            ("pitch_tau", PITCH_TAU), ("sag_tau", SAG_TAU), ("reach", REACH),
-                            ("shift_speed", SHIFT_SPEED), ("root_band", ROOT_BAND),
-                            ("ground_band", GROUND_BAND), ("swing_fade", turning.SWING_FADE),
-                            ("swing_low", turning.SWING_LOW), ("swing_high", turning.SWING_HIGH),
-                            ("max_yaw_lead", turning.MAX_YAW_LEAD),
-                            ("max_pitch_lead", turning.MAX_PITCH_LEAD)):
-            self._scal[SCALARS.index(name)] = value
-        self._scratch = np.empty((J + 16, 3, 3))
+        self._rig = PlaceRig(np.ascontiguousarray(skel.parents, dtype=np.int64),
+                             np.ascontiguousarray(skel.offsets, dtype=float),
+                             self.lead.chain, self.lead.share, self.lead.tau, self._feet,
+                             pair[0], pair[1], float(self._centre), float(self._girdles[0]),
+                             float(self._girdles[1]))
+        self._tuning = PlaceTuning(
+            look_distance=LOOK_DISTANCE, pitch_tau=PITCH_TAU, sag_tau=SAG_TAU, reach=REACH,
+            shift_speed=SHIFT_SPEED, root_band=ROOT_BAND, ground_band=GROUND_BAND,
+            swing_fade=turning.SWING_FADE, swing_low=turning.SWING_LOW,
+            swing_high=turning.SWING_HIGH, max_yaw_lead=turning.MAX_YAW_LEAD,
+            max_pitch_lead=turning.MAX_PITCH_LEAD)
+        self._place = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
+                                 self.planter.state)
         self._rest_q = np.zeros((J, 4))
         self._rest_q[:, 0] = 1.0
         self.max_turn_rate = math.radians(float(
@@ -279,12 +269,12 @@ class HorseDataController:
     @property
     def pitch(self) -> float:
         """Body pitch (rad), nose up: follows the ground between the hips and the shoulders."""
-        return float(self._scal[S_PITCH])
+        return float(self._place.pitch[0])
 
     @property
     def sag(self) -> float:
         """How far the body is lowered for its planted legs (m)."""
-        return float(self._scal[S_SAG])
+        return float(self._place.sag[0])
 
     @property
     def speed(self) -> float:
@@ -639,20 +629,14 @@ class HorseDataController:
         dt = 0.0 if first else self._last_dt
         yaw, yaw0 = self.yaw, self._yaw_prev
         self._yaw_prev = yaw
-        if first:
-            self.position = np.zeros(3)
         local = np.asarray(local, dtype=float)
-        J = len(q)
-        L = np.empty((J, 3, 3))
-        rot = np.empty((J, 4))
-        P = np.empty((J, 3))
-        root = np.empty(3)
-        planted = np.empty(4, dtype=bool)
-        ground = np.empty(4)
-        place_row(local, local if first else self._local_prev, q, contacts, first, dt, yaw,
-                  yaw0, self._yaw_lead, self.position, self._scal, self.lead.state,
-                  self.planter.state, self.ground.table, self._ints, self._parents,
-                  self._offsets, L, rot, P, root, planted, ground, self._scratch)
+        frame = PlaceFrame(local, local if first else self._local_prev, q, contacts, bool(first),
+                           float(dt), float(yaw), float(yaw0), float(self._yaw_lead))
+        out = new_placed_pose(len(q))
+        place_row(frame, self._rig, self._tuning, self._place, self.ground.table, out)
+        self.position = self._place.position
+        rot, L, P, root, planted, ground = (out.rotations, out.local_rotations, out.positions,
+                                            out.root, out.contacts, out.ground)
         self._local_prev = local
         self.time += dt
         return {"rotations": rot, "local_rotations": L, "root": root, "positions": P,
