@@ -115,8 +115,10 @@ def cmd_run(args) -> int:
         warnings.simplefilter("always")
         if config.mode == "data":
             from quadsim.horse.controller import simulate as simulate_data
+            from quadsim.io.clips import load_default_database
 
-            motion = simulate_data(character, config.commands, config.duration, config.fps)
+            motion = simulate_data(character, config.commands, config.duration, config.fps,
+                                   database=load_default_database(character))
         else:
             motion = simulate(character, config.commands, config.duration, config.fps,
                               seed=config.seed)
@@ -237,9 +239,11 @@ def _motion_source(source: str, seconds: float | None, units: str = "m"):
         warnings.simplefilter("always")
         if config.mode == "data":
             from quadsim.horse.controller import simulate as simulate_data
+            from quadsim.io.clips import load_default_database
 
-            motion = simulate_data(config.load_character(), config.commands,
-                                   config.duration, config.fps)
+            character = config.load_character()
+            motion = simulate_data(character, config.commands, config.duration, config.fps,
+                                   database=load_default_database(character))
         else:
             motion = simulate(config.load_character(), config.commands, config.duration,
                               config.fps, seed=config.seed)

@@ -20,6 +20,7 @@ from quadsim.config import load_config
 from quadsim.errors import InputError
 from quadsim.horse.controller import TURN_PER_STANCE, HorseDataController, simulate
 from quadsim.horse.database import looped
+from quadsim.io.clips import load_default_database
 from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, measure_contact_time
 from quadsim.io.bvh import read_bvh
 from quadsim.commands import Command, Script
@@ -30,7 +31,7 @@ FPS = 60
 
 @pytest.fixture(scope="module")
 def ctl(horse):
-    return HorseDataController(horse)
+    return HorseDataController(horse, load_default_database(horse))
 
 
 def _run(horse, script, duration, ctl):

@@ -212,8 +212,8 @@ def test_slope_up_then_down_with_a_turn(horse, db):
     assert y[-1] < y.max() - 0.2
 
 
-def test_bad_slopes_are_rejected(horse, tmp_path):
-    ctl = HorseDataController(horse)
+def test_bad_slopes_are_rejected(horse, db, tmp_path):
+    ctl = HorseDataController(horse, db)
     with pytest.raises(InputError, match=r"slope.*out of range.*-20 to 20 deg"):
         ctl.step(Command(speed=3.0, slope=math.radians(35.0)))
     base = {"character": "horse", "duration": 2.0, "fps": 30, "mode": "data",

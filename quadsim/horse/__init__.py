@@ -1,7 +1,8 @@
 """The data-driven horse mode: a clip database expanded to any speed.
 
-Modules: :mod:`.database` (looped BVH clips and their manifest; the
-:func:`~.database.cut_cycles` builder), :mod:`.legs` (two-bone IK that keeps
+Modules: :mod:`.database` (looped clips and the database of them; the
+:func:`~.database.cut_cycles` builder; clip folders are read by
+:mod:`quadsim.io.clips`), :mod:`.legs` (two-bone IK that keeps
 the lower leg; holding stance feet), :mod:`.speed` (Hoyt's contact-time law,
 speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
 :mod:`.root` (foot phases and the root from the landing feet),
@@ -11,15 +12,7 @@ speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
 data-driven horse, and :func:`~.controller.simulate`, used by ``mode = "data"``).
 """
 
-from .database import (
-    Clip,
-    ClipDatabase,
-    Cycle,
-    clip_folder,
-    cut_cycles,
-    load_database,
-    load_default_database,
-)
+from .database import Clip, ClipDatabase, Cycle, cut_cycles
 from .controller import HorseDataController
 from .controller import simulate as simulate_data
 from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
@@ -33,13 +26,10 @@ __all__ = [
     "ClipDatabase",
     "Cycle",
     "blend_frames",
-    "clip_folder",
     "contact_time",
     "cut_cycles",
     "expand",
     "leg_times",
-    "load_database",
-    "load_default_database",
     "simulate_data",
     "step_length",
     "synchronous_transition",

@@ -90,15 +90,31 @@ from ..commands import Command, Script
 from ..errors import QuadsimClampWarning
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
-from . import turning
-from .database import ClipDatabase, load_default_database
-from .bundles import PlaceFrame, PlaceRig, PlaceState, PlaceTuning, new_placed_pose
-from .place_kernel import place_row, sample_row, slerp_into, stance_row
+from .database import ClipDatabase
+from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
+from .place_kernel import (
+    FixedTypeCall,
+    pack_contacts,
+    place_row,
+    sample_row,
+    slerp_into,
+    stance_row,
+)
 from .root import FLIGHT, clip_stance_cycles
 from .slope import Ground
 from .speed import HOYT, expand
 from .timewarp import REFERENCE, leg_times, transition_motion
-from .turning import GROUND_BAND, LOOK_AHEAD, BodyLead, FootPlanter
+from .turning import (
+    GROUND_BAND,
+    LOOK_AHEAD,
+    MAX_PITCH_LEAD,
+    MAX_YAW_LEAD,
+    SWING_FADE,
+    SWING_HIGH,
+    SWING_LOW,
+    BodyLead,
+    FootPlanter,
+)
 
 #: Gaits chosen by speed, slowest first (amble and rack only on request).
 AUTO_GAITS = ("walk", "trot", "canter", "gallop")
@@ -173,10 +189,7 @@ class _Packed:
             dtype=float)
         self.rot = np.ascontiguousarray(np.concatenate([m.rotations, m.rotations[:1]]),
                                         dtype=float)
-        self.count = np.array([len(x) for x in stance], dtype=np.int64)
-        self.on_off = np.zeros((4, max(1, int(self.count.max())), 2))
-        for j, x in enumerate(stance):
-            self.on_off[j, :len(x)] = x
+        self.on_off, self.count = pack_contacts(stance)
 
 
 class HorseDataController:
@@ -185,17 +198,21 @@ class HorseDataController:
     Parameters
     ----------
     character : Character
-        A character with a clip database (the horse).
-    database : ClipDatabase, optional
-        Defaults to the character's shipped database.
+        The character the clips were read onto (the horse).
+    database : ClipDatabase
+        Its clips (:func:`quadsim.io.clips.load_default_database` reads the
+        shipped ones, :func:`quadsim.io.clips.load_database` any folder).
     dt : float
         Default time step (s).
     """
 
-    def __init__(self, character: Character, database: ClipDatabase | None = None,
-                 dt: float = 1 / 60):
+    def __init__(self, character: Character, database: ClipDatabase, dt: float = 1 / 60):
+        if not isinstance(database, ClipDatabase):
+            raise TypeError(f"HorseDataController: `database` must be a ClipDatabase (read one "
+                             f"with quadsim.io.clips.load_default_database), got "
+                             f"{type(database).__name__}")
         self.character = character
-        self.db = database if database is not None else load_default_database(character)
+        self.db = database
         self.dt = float(dt)
         self.auto = [g for g in AUTO_GAITS if self.db.by_gait(g)]
         if not self.auto:
@@ -255,11 +272,12 @@ class HorseDataController:
         self._tuning = PlaceTuning(
             look_distance=LOOK_DISTANCE, pitch_tau=PITCH_TAU, sag_tau=SAG_TAU, reach=REACH,
             shift_speed=SHIFT_SPEED, root_band=ROOT_BAND, ground_band=GROUND_BAND,
-            swing_fade=turning.SWING_FADE, swing_low=turning.SWING_LOW,
-            swing_high=turning.SWING_HIGH, max_yaw_lead=turning.MAX_YAW_LEAD,
-            max_pitch_lead=turning.MAX_PITCH_LEAD)
+            swing_fade=SWING_FADE, swing_low=SWING_LOW, swing_high=SWING_HIGH,
+            max_yaw_lead=MAX_YAW_LEAD, max_pitch_lead=MAX_PITCH_LEAD)
         self._place = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                  self.planter.state)
+        self._place_row = FixedTypeCall(place_row)
+        self._scratch = np.empty((J + 16, 3, 3))
         self._rest_q = np.zeros((J, 4))
         self._rest_q[:, 0] = 1.0
         self.max_turn_rate = math.radians(float(
@@ -629,11 +647,18 @@ class HorseDataController:
         dt = 0.0 if first else self._last_dt
         yaw, yaw0 = self.yaw, self._yaw_prev
         self._yaw_prev = yaw
-        local = np.asarray(local, dtype=float)
-        frame = PlaceFrame(local, local if first else self._local_prev, q, contacts, bool(first),
+        # every argument of the same types each frame (see FixedTypeCall)
+        local = np.ascontiguousarray(local, dtype=float)
+        frame = PlaceFrame(local, local if first else np.ascontiguousarray(self._local_prev,
+                                                                           dtype=float),
+                           np.ascontiguousarray(q, dtype=float),
+                           np.ascontiguousarray(contacts, dtype=np.bool_), bool(first),
                            float(dt), float(yaw), float(yaw0), float(self._yaw_lead))
-        out = new_placed_pose(len(q))
-        place_row(frame, self._rig, self._tuning, self._place, self.ground.table, out)
+        J = len(q)
+        out = PlacedPose(np.empty((J, 3, 3)), np.empty((J, 4)), np.empty((J, 3)), np.empty(3),
+                         np.empty(4, dtype=np.bool_), np.empty(4), self._scratch)
+        self._place_row(frame, self._rig, self._tuning, self._place,
+                        np.ascontiguousarray(self.ground.table, dtype=float), out)
         self.position = self._place.position
         rot, L, P, root, planted, ground = (out.rotations, out.local_rotations, out.positions,
                                             out.root, out.contacts, out.ground)
@@ -645,7 +670,7 @@ class HorseDataController:
 
 
 def simulate(character: Character, script: Script | Command, duration: float, fps: float, *,
-             database: ClipDatabase | None = None) -> Motion:
+             database: ClipDatabase) -> Motion:
     """Run a script with the data-driven horse; one step per frame.
 
     Parameters
@@ -656,7 +681,8 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         Seconds (> 0).
     fps : float
         Frames per second (> 0).
-    database : ClipDatabase, optional
+    database : ClipDatabase
+        The clips played (see :class:`HorseDataController`).
 
     Returns
     -------

@@ -63,6 +63,14 @@ def ground_height(ramps, x, z):
 
 
 @njit(cache=True)
+def ground_heights(ramps, xz, out):
+    """:func:`ground_height` of many points: ``xz`` (n, 2) horizontal points (m),
+    ``out`` (n,) their heights (m)."""
+    for k in range(xz.shape[0]):
+        out[k] = ground_height(ramps, xz[k, 0], xz[k, 1])
+
+
+@njit(cache=True)
 def _smoothstep(x):
     x = min(max(x, 0.0), 1.0)
     return x * x * (3.0 - 2.0 * x)
@@ -100,6 +108,14 @@ def sample_row(roots, rots, i0, i1, a, root_out, q_out):
 
 
 @njit(cache=True)
+def sample_rows(roots, rots, i0, i1, a, root_out, q_out):
+    """:func:`sample_row` for ``n`` samples: frames ``i0``, ``i1`` (n,) int, fractions
+    ``a`` (n,); ``root_out`` (n, 3), ``q_out`` (n, J, 4) output."""
+    for k in range(i0.shape[0]):
+        sample_row(roots, rots, i0[k], i1[k], a[k], root_out[k], q_out[k])
+
+
+@njit(cache=True)
 def _in_contact(on_off, count, leg, t):
     x = t % 1.0
     for k in range(count[leg]):
@@ -127,6 +143,15 @@ def stance_row(on_off, count, frames, phase, out):
             st = _in_contact(on_off, count, leg, k / frames) and \
                 _in_contact(on_off, count, leg, (k + 1) / frames)
         out[leg] = st
+
+
+@njit(cache=True)
+def contact_rows(on_off, count, t, out):
+    """Whether each leg is in one of its contacts at generic times ``t`` (T, 4) (cycles):
+    ``out`` (T, 4) bool. ``on_off`` (4, M, 2) and ``count`` (4,) as in :func:`stance_row`."""
+    for r in range(t.shape[0]):
+        for leg in range(4):
+            out[r, leg] = _in_contact(on_off, count, leg, t[r, leg])
 
 
 @njit(cache=True)
@@ -162,6 +187,47 @@ def place_feet_rows(parents, offsets, L, roots, legs, targets, q_out):
                          targets[t, i], L[t, top], L[t, mid], work)
         for j in range(J):
             quaternion_from_matrix(L[t, j], q_out[t, j])
+
+
+def pack_contacts(stance_cycles) -> tuple[np.ndarray, np.ndarray]:
+    """Each foot's contacts (list of 4 arrays (n_i, 2), cycles) packed for
+    :func:`stance_row` and :func:`contact_rows`: ``on_off`` (4, M, 2), ``count`` (4,) int64."""
+    count = np.array([len(x) for x in stance_cycles], dtype=np.int64)
+    on_off = np.zeros((4, max(1, int(count.max())), 2))
+    for j, x in enumerate(stance_cycles):
+        on_off[j, :len(x)] = x
+    return on_off, count
+
+
+class FixedTypeCall:
+    """A compiled kernel called again and again with arguments of the same types, without
+    numba's per-call type dispatch.
+
+    numba types every argument on every call; for :func:`place_row`'s nested bundles
+    (about fifty arrays and scalars) that costs as much as the kernel's own work. The
+    first call goes through the dispatcher (compiling or loading the cached machine
+    code); later calls go straight to the compiled entry point of that signature.
+    The caller must pass arguments of the first call's types (dtype, dimensions,
+    layout) every time -- the controller builds them that way -- since the entry
+    point does not check them.
+
+    Parameters
+    ----------
+    kernel : numba dispatcher
+    """
+
+    def __init__(self, kernel):
+        self.kernel = kernel
+        self._entry = None
+
+    def __call__(self, *args):
+        if self._entry is not None:
+            return self._entry(*args)
+        result = self.kernel(*args)
+        sig = tuple(self.kernel.typeof_pyval(a) for a in args)
+        overload = getattr(self.kernel, "overloads", {}).get(sig)
+        self._entry = getattr(overload, "entry_point", None)
+        return result
 
 
 # ------------------------------------------------------------------ the placement
@@ -226,7 +292,7 @@ def place_row(frame, rig, tuning, state, ramps, out):
         out.ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _travel(frame, rig, state):
     """The heading change turns the body about its middle, then the clip's travel goes
     along the heading (``state.position`` updated; at the origin on the first frame)."""
@@ -245,7 +311,7 @@ def _travel(frame, rig, state):
     position[2] += (math.cos(frame.yaw_prev) - cy) * c + (-sy * dx + cy * dz) * cp
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pitch_to_ground(frame, rig, tuning, state, ramps):
     """Pitch the body towards the ground's slope between the hips and the shoulders.
 
@@ -266,7 +332,7 @@ def _pitch_to_ground(frame, rig, tuning, state, ramps):
     return th, math.atan2(ga - gf, look)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _lead_step(frame, rig, tuning, lead, th, ahead):
     """Each chain joint's leads towards its share of the wanted yaw and pitch leads."""
     my, mp = tuning.max_yaw_lead, tuning.max_pitch_lead
@@ -281,7 +347,7 @@ def _lead_step(frame, rig, tuning, lead, th, ahead):
             lead.yaw[k] = rig.share[k] * yl
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _clip_pose(frame, rig, lead, th, L, M):
     """The clip's rotations into ``L`` (J, 3, 3), the root turned to the heading and
     pitched by ``th`` (that rotation left in ``M[0]``), the body lead into the chain."""
@@ -321,7 +387,7 @@ def _clip_pose(frame, rig, lead, th, L, M):
         Ap[:, :] = An
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contacts, th):
     """Move the root by the mean offset of the planted feet the clip holds down
     (equation 11), at most ``shift_speed``; ``root``, the feet ``F`` (4, 3) and
@@ -364,7 +430,7 @@ def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contact
     return shx, shy, shz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
     """Each foot's target ``tgt`` (4, 3) by the :class:`~quadsim.horse.turning.FootPlanter`'s
     rules: a planted foot on its plant, a striking one planted on the ground, a lifted
@@ -405,7 +471,7 @@ def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
         tgt[i, 0], tgt[i, 1], tgt[i, 2] = tx, ty, tz
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B):
     """Lower the body when a planted foot is beyond its leg's reach; returns the sag (m)
     (``state.sag`` updated). ``A``, ``B`` (4, 3): output, each pair's top and middle
@@ -429,7 +495,7 @@ def _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B):
     return state.sag[0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M):
     """The four legs' two-bone IK onto ``tgt`` (4, 3), the body lowered by ``sag``
     (``L`` updated)."""
@@ -482,5 +548,6 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["CONTACT_SLACK", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "ground_height",
-           "place_feet_rows", "place_row", "sample_row", "slerp_into", "stance_row"]
+__all__ = ["CONTACT_SLACK", "FixedTypeCall", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "contact_rows",
+           "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
+           "sample_row", "sample_rows", "slerp_into", "stance_row"]

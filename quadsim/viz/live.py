@@ -219,7 +219,10 @@ class DataLive:
 
     def __init__(self, character, *, dt: float, database=None):
         from quadsim.horse.controller import HorseDataController
+        from quadsim.io.clips import load_default_database
 
+        if database is None:
+            database = load_default_database(character)
         self.character = character
         self.controller = HorseDataController(character, database, dt=dt)
         db = self.controller.db
@@ -324,7 +327,7 @@ def check_mode(character, mode: str) -> None:
                          f"{', '.join(map(repr, MODES))}")
     if mode != "data":
         return
-    from quadsim.horse.database import clip_folder
+    from quadsim.io.clips import clip_folder
 
     if clip_folder(character) is None:
         raise InputError(f"`--mode data`: character {character.id!r} has no clip database "
