@@ -95,7 +95,7 @@ def test_ground_height_matches_the_ramp_field():
 def test_stance_row_holds_a_foot_only_when_down_on_both_frames_about_the_time(horse, db, gait):
     ctl = HorseDataController(horse, db)
     clip = ctl.expanded(gait, db.by_gait(gait)[0].speed)
-    pk = ctl._pack(clip)
+    pk = ctl.player._pack(clip)
     stance = clip_stance_cycles(clip)
     rng = np.random.default_rng(5)
     times = np.concatenate([rng.uniform(0.0, 3.0, 300), np.arange(clip.frames) / clip.frames])

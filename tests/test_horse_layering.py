@@ -61,6 +61,11 @@ def test_no_module_of_the_engine_imports_its_own_package(path):
 
 
 @pytest.mark.parametrize("path", MODULES, ids=lambda p: p.name)
+def test_modules_stay_under_600_lines(path):
+    assert len(path.read_text(encoding="utf-8").splitlines()) <= 600
+
+
+@pytest.mark.parametrize("path", MODULES, ids=lambda p: p.name)
 def test_no_function_takes_more_than_15_parameters(path):
     long = []
     for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):

@@ -220,6 +220,9 @@ class FixedTypeCall:
         self.kernel = kernel
         self._entry = None
 
+    def __deepcopy__(self, memo):
+        return self             # holds no per-call state: copies of a controller share it
+
     def __call__(self, *args):
         if self._entry is not None:
             return self._entry(*args)
