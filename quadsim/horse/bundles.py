@@ -203,8 +203,8 @@ class PlacedPose(NamedTuple):
         The planted feet.
     ground : ndarray, shape (4,)
         Ground height under each foot (m).
-    scratch : ndarray, shape (J + 16, 3, 3)
-        Work space.
+    scratch : ndarray, shape (J + WORK_MATRICES, 3, 3)
+        Work space (:data:`~quadsim.horse.place_kernel.WORK_MATRICES`).
     """
 
     local_rotations: np.ndarray
@@ -216,21 +216,5 @@ class PlacedPose(NamedTuple):
     scratch: np.ndarray
 
 
-def new_place_state(n_chain: int) -> PlaceState:
-    """A fresh :class:`PlaceState` for a body lead of ``n_chain`` joints: at the origin,
-    level, no lead, no foot planted."""
-    return PlaceState(np.zeros(3), np.zeros(1), np.zeros(1),
-                      LeadState(np.zeros(n_chain), np.zeros(n_chain)),
-                      FeetState(np.zeros(4, dtype=np.bool_), np.zeros((4, 3)), np.zeros((4, 2)),
-                                np.zeros((4, 2)), np.full(4, np.inf), np.zeros(4)))
-
-
-def new_placed_pose(n_joints: int) -> PlacedPose:
-    """Fresh output buffers of :func:`place_row` for ``n_joints`` joints."""
-    J = n_joints
-    return PlacedPose(np.empty((J, 3, 3)), np.empty((J, 4)), np.empty((J, 3)), np.empty(3),
-                      np.empty(4, dtype=np.bool_), np.empty(4), np.empty((J + 16, 3, 3)))
-
-
 __all__ = ["FeetState", "LeadState", "PlaceFrame", "PlaceRig", "PlaceState", "PlaceTuning",
-           "PlacedPose", "new_place_state", "new_placed_pose"]
+           "PlacedPose"]

@@ -45,6 +45,8 @@ from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matri
 CONTACT_SLACK = 1e-9
 #: A generic time at most this far past a frame (in frames) counts as on the frame.
 ON_FRAME = 1e-9
+#: Work matrices :func:`place_row` needs beyond one per joint (its scratch is (J + this, 3, 3)).
+WORK_MATRICES = 16
 #: A swing foot is at least this fraction of its clip clearance over the ground under it.
 MIN_CLEARANCE_FRACTION = 0.5
 
@@ -253,7 +255,7 @@ def place_row(frame, rig, tuning, state, ramps, out):
     """
     J = rig.parents.shape[0]
     G = out.scratch[:J]
-    M = out.scratch[J:J + 16]
+    M = out.scratch[J:]
     _travel(frame, rig, state)
     th, ahead = _pitch_to_ground(frame, rig, tuning, state, ramps)
     _lead_step(frame, rig, tuning, state.lead, th, ahead)
@@ -551,6 +553,7 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["CONTACT_SLACK", "FixedTypeCall", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "contact_rows",
+__all__ = ["CONTACT_SLACK", "FixedTypeCall", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
+           "contact_rows",
            "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
            "sample_row", "sample_rows", "slerp_into", "stance_row"]

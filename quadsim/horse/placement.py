@@ -35,7 +35,7 @@ import numpy as np
 
 from ..skeleton.character import Character
 from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
-from .place_kernel import FixedTypeCall, place_row
+from .place_kernel import WORK_MATRICES, FixedTypeCall, place_row
 from .turning import (
     GROUND_BAND,
     MAX_PITCH_LEAD,
@@ -106,7 +106,7 @@ class Placement:
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
         self._place_row = FixedTypeCall(place_row)
-        self._scratch = np.empty((skel.n_joints + 16, 3, 3))
+        self._scratch = np.empty((skel.n_joints + WORK_MATRICES, 3, 3))
 
     @property
     def pitch(self) -> float:
