@@ -29,7 +29,13 @@ from horse_oracles import (
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.database import sample_motion
 from quadsim.horse.legs import two_bone
-from quadsim.horse.place_kernel import ground_height, sample_row, stance_row
+from quadsim.horse.place_kernel import (
+    FixedTypeCall,
+    ground_height,
+    ground_heights,
+    sample_row,
+    stance_row,
+)
 from quadsim.kinematics.chains import fk_row, two_bone_row
 from quadsim.horse.root import clip_stance_cycles, in_stance
 from quadsim.horse.slope import Ground
@@ -130,3 +136,16 @@ def test_sample_row_matches_the_slerp_formula(horse, db):
     want_root, want_q = sample_reference(m, frames)
     np.testing.assert_allclose(got_root, want_root, atol=1e-12)
     np.testing.assert_allclose(got_q, want_q, atol=1e-12)
+
+
+def test_fixed_type_call_dispatches_once_then_calls_the_compiled_code():
+    g = Ground()
+    g.add_ramp([0.0, 1.0], 0.3, math.radians(6.0))
+    xz = np.random.default_rng(6).uniform(-3.0, 5.0, size=(50, 2))
+    call = FixedTypeCall(ground_heights)
+    first, again = np.empty(50), np.empty(50)
+    call(g.table, xz, first)
+    assert call._entry is not None                  # bound to the compiled signature
+    call(g.table, xz, again)
+    np.testing.assert_array_equal(again, first)
+    np.testing.assert_allclose(first, ramp_height_reference(g.table, xz), atol=1e-12)

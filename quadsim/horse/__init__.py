@@ -8,8 +8,13 @@ speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
 :mod:`.root` (foot phases and the root from the landing feet),
 :mod:`.turning` (the head-first lead into turns and slopes, planted feet),
 :mod:`.slope` (the ground: flat, or planar ramps along the heading),
+:mod:`.place_kernel` (the compiled per-frame work) and :mod:`.bundles` (the
+named bundles it reads), :mod:`.playback` (gait bands, expanded clips, poses
+at a generic time), :mod:`.placement` (the world placement each frame),
+:mod:`.steering` (heading and turn limits; clamp notices),
 :mod:`.controller` (:class:`~.controller.HorseDataController`, the interactive
-data-driven horse, and :func:`~.controller.simulate`, used by ``mode = "data"``).
+data-driven horse, a :class:`quadsim.controller.Controller`, and
+:func:`~.controller.simulate`, used by ``mode = "data"``).
 """
 
 from .database import Clip, ClipDatabase, Cycle, cut_cycles
