@@ -121,6 +121,8 @@ class ClipPlayer:
             self.leap_contacts = np.ascontiguousarray(
                 foot_contacts(lm.foot_positions(), lm.fps), dtype=bool)
         self._clips = {g: database.by_gait(g) for g in database.gaits}
+        self._ranges = {g: (c[0].speed * SPEED_REACH[0], c[-1].speed * SPEED_REACH[1])
+                        for g, c in self._clips.items()}
         self._cache: dict = {}
         self._stance: dict = {}
         self._packed: dict = {}
@@ -163,11 +165,13 @@ class ClipPlayer:
 
     def speed_range(self, gait: str) -> tuple[float, float]:
         """Slowest and fastest speed (m/s) the gait's clips are played at."""
-        clips = self._clips.get(GAIT_ALIASES.get(gait, gait))
-        if not clips:
-            raise InputError(f"the clip database has no {gait!r} clip; "
-                             f"it has: {', '.join(self.db.gaits)}")
-        return clips[0].speed * SPEED_REACH[0], clips[-1].speed * SPEED_REACH[1]
+        r = self._ranges.get(gait)
+        if r is None:
+            r = self._ranges.get(GAIT_ALIASES.get(gait, gait))
+            if r is None:
+                raise InputError(f"the clip database has no {gait!r} clip; "
+                                 f"it has: {', '.join(self.db.gaits)}")
+        return r
 
     def expanded(self, gait: str, speed: float) -> Clip:
         """The gait's nearest clip expanded to ``speed`` (clamped to :meth:`speed_range`,
