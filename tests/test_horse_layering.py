@@ -76,3 +76,40 @@ def test_no_function_takes_more_than_15_parameters(path):
             if n > 15:
                 long.append((node.name, n))
     assert not long, f"{path.name}: {long}"
+
+
+def _cycle(graph: dict) -> list | None:
+    """An import cycle of ``graph`` (module -> imported modules), or None."""
+    state: dict = {}
+
+    def visit(node, path):
+        state[node] = "open"
+        for nxt in graph.get(node, ()):
+            if state.get(nxt) == "open":
+                return path[path.index(nxt):] + [nxt] if nxt in path else [node, nxt]
+            if nxt not in state:
+                found = visit(nxt, path + [nxt])
+                if found:
+                    return found
+        state[node] = "done"
+        return None
+
+    for node in graph:
+        if node not in state:
+            found = visit(node, [node])
+            if found:
+                return found
+    return None
+
+
+def test_the_cycle_check_finds_a_cycle():
+    assert _cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert _cycle({"a": {"b"}, "b": set(), "c": {"a"}}) is None
+
+
+def test_the_engine_modules_import_each_other_without_a_cycle():
+    names = {f"quadsim.horse.{p.stem}" for p in MODULES if p.name != "__init__.py"}
+    graph = {f"quadsim.horse.{p.stem}": {n for _, n in _imports(p) if n in names}
+             for p in MODULES if p.name != "__init__.py"}
+    assert {"quadsim.horse.playback", "quadsim.horse.placement"} <= graph["quadsim.horse.controller"]
+    assert _cycle(graph) is None
