@@ -274,13 +274,14 @@ def place_row(frame, rig, tuning, state, ramps, out):
     clearance = np.empty(4)
     contacts = out.contacts
     R = M[0]
+    feet, band, clip_contacts = rig.feet, tuning.ground_band, frame.contacts
     for i in range(4):
-        f = rig.feet[i]
+        f = feet[i]
         F[i, 0], F[i, 1], F[i, 2] = P[f, 0], P[f, 1], P[f, 2]
         # the feet's height above the clip's ground, in the body's frame
         clearance[i] = (F[i, 0] - root[0]) * R[0, 1] + (F[i, 1] - root[1]) * R[1, 1] \
             + (F[i, 2] - root[2]) * R[2, 1] + h
-        contacts[i] = frame.contacts[i] or clearance[i] <= tuning.ground_band
+        contacts[i] = clip_contacts[i] or clearance[i] <= band
     shift = _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contacts, th)
     tgt = np.empty((4, 3))
     _foot_targets(frame, tuning, state.feet, ramps, F, clearance, contacts, tgt)
@@ -289,12 +290,13 @@ def place_row(frame, rig, tuning, state, ramps, out):
     sag = _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B)
     root[1] -= sag
     _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M)
+    rotations, ground = out.rotations, out.ground
     for j in range(J):
-        quaternion_from_matrix(L[j], out.rotations[j])
+        quaternion_from_matrix(L[j], rotations[j])
     fk_row(rig.parents, rig.offsets, L, root, G, P)
     for i in range(4):
-        f = rig.feet[i]
-        out.ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
+        f = feet[i]
+        ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
 
 
 @njit(cache=True, inline="always")
@@ -343,13 +345,14 @@ def _lead_step(frame, rig, tuning, lead, th, ahead):
     my, mp = tuning.max_yaw_lead, tuning.max_pitch_lead
     yl = min(max(frame.yaw_lead, -my), my)
     pl = min(max(ahead - th, -mp), mp)
-    dt = frame.dt
+    dt, first = frame.dt, frame.first
+    tau, share, yaw, pitch = rig.tau, rig.share, lead.yaw, lead.pitch
     for k in range(rig.chain.shape[0]):
-        a = 1.0 - math.exp(-dt / rig.tau[k])
-        lead.yaw[k] += a * (rig.share[k] * yl - lead.yaw[k])
-        lead.pitch[k] += a * (rig.share[k] * pl - lead.pitch[k])
-        if frame.first:
-            lead.yaw[k] = rig.share[k] * yl
+        a = 1.0 - math.exp(-dt / tau[k])
+        yaw[k] += a * (share[k] * yl - yaw[k])
+        pitch[k] += a * (share[k] * pl - pitch[k])
+        if first:
+            yaw[k] = share[k] * yl
 
 
 @njit(cache=True, inline="always")
@@ -375,14 +378,14 @@ def _clip_pose(frame, rig, lead, th, L, M):
     L[0, :, :] = M[1]
     # the lead into the pose: chain joint k's world rotation becomes A_k W_k,
     # A_k = R_y(yaw_k) (Y_h R_x(-pitch_k) Y_h^T); L_k' = Wp^T A_{k-1}^T A_k Wp L_k
-    chain = rig.chain
+    chain, lead_yaw, lead_pitch = rig.chain, lead.yaw, lead.pitch
     Wp, Wn, Ap, An, T1, T2 = M[2], M[3], M[4], M[5], M[6], M[7]
     Wp[:, :] = L[chain[0]]
-    _lead_matrix(lead.yaw[0], lead.pitch[0], sy, cy, Ap)
+    _lead_matrix(lead_yaw[0], lead_pitch[0], sy, cy, Ap)
     for k in range(1, chain.shape[0]):
         j = chain[k]
         mul_into(Wp, L[j], Wn)                 # the joint's world rotation before the lead
-        _lead_matrix(lead.yaw[k], lead.pitch[k], sy, cy, An)
+        _lead_matrix(lead_yaw[k], lead_pitch[k], sy, cy, An)
         mul_tn_into(Ap, An, T1)                # A_{k-1}^T A_k
         mul_into(T1, Wp, T2)
         mul_tn_into(Wp, T2, T1)                # Wp^T A_{k-1}^T A_k Wp
@@ -402,10 +405,11 @@ def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contact
     sz = 0.0
     n_stay = 0
     if not frame.first:
+        planted, plant, band = feet.planted, feet.plant, tuning.root_band
         for i in range(4):
-            if feet.planted[i] and contacts[i] and clearance[i] <= tuning.root_band:
-                sx += feet.plant[i, 0] - F[i, 0]
-                sz += feet.plant[i, 2] - F[i, 2]
+            if planted[i] and contacts[i] and clearance[i] <= band:
+                sx += plant[i, 0] - F[i, 0]
+                sz += plant[i, 2] - F[i, 2]
                 n_stay += 1
     shx = 0.0
     shy = 0.0
@@ -440,39 +444,41 @@ def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
     """Each foot's target ``tgt`` (4, 3) by the :class:`~quadsim.horse.turning.FootPlanter`'s
     rules: a planted foot on its plant, a striking one planted on the ground, a lifted
     one's correction fading, a swing foot over the ground (``feet`` updated)."""
+    planted_, plant, offset, hold, air, drop = (feet.planted, feet.plant, feet.offset, feet.hold,
+                                                feet.air, feet.drop)
     if frame.first:
         for i in range(4):
-            feet.planted[i] = False
-    fade_t, low, high = tuning.swing_fade, tuning.swing_low, tuning.swing_high
+            planted_[i] = False
+    fade_t, low, high, dt = tuning.swing_fade, tuning.swing_low, tuning.swing_high, frame.dt
     for i in range(4):
-        planted = feet.planted[i]
+        planted = planted_[i]
         if planted and not contacts[i]:        # lift-off: keep the last planted correction
-            feet.offset[i, 0] = feet.hold[i, 0]
-            feet.offset[i, 1] = feet.hold[i, 1]
-            feet.air[i] = 0.0
+            offset[i, 0] = hold[i, 0]
+            offset[i, 1] = hold[i, 1]
+            air[i] = 0.0
         elif not contacts[i]:
-            feet.air[i] += frame.dt
-        fade = 1.0 - _smoothstep(feet.air[i] / fade_t)
-        tx = F[i, 0] + feet.offset[i, 0] * fade
-        tz = F[i, 2] + feet.offset[i, 1] * fade
+            air[i] += dt
+        fade = 1.0 - _smoothstep(air[i] / fade_t)
+        tx = F[i, 0] + offset[i, 0] * fade
+        tz = F[i, 2] + offset[i, 1] * fade
         clear = max(clearance[i], 0.0)
         g = ground_height(ramps, tx, tz)
         over = g + clear
         w = 1.0 - _smoothstep((clear - low) / (high - low))
         ty = max(min(over, F[i, 1] + w * (over - F[i, 1])), over - MIN_CLEARANCE_FRACTION * clear)
         if contacts[i] and not planted:        # strike: the plant, on the ground
-            feet.plant[i, 0], feet.plant[i, 1], feet.plant[i, 2] = tx, g, tz
-            feet.drop[i] = ty - g
+            plant[i, 0], plant[i, 1], plant[i, 2] = tx, g, tz
+            drop[i] = ty - g
         else:
-            feet.drop[i] = 0.0
-        feet.planted[i] = contacts[i]
+            drop[i] = 0.0
+        planted_[i] = contacts[i]
         if contacts[i]:
-            tx, ty, tz = feet.plant[i, 0], feet.plant[i, 1], feet.plant[i, 2]
-            feet.hold[i, 0] = tx - F[i, 0]
-            feet.hold[i, 1] = tz - F[i, 2]
+            tx, ty, tz = plant[i, 0], plant[i, 1], plant[i, 2]
+            hold[i, 0] = tx - F[i, 0]
+            hold[i, 1] = tz - F[i, 2]
         else:
-            feet.hold[i, 0] = 0.0
-            feet.hold[i, 1] = 0.0
+            hold[i, 0] = 0.0
+            hold[i, 1] = 0.0
         tgt[i, 0], tgt[i, 1], tgt[i, 2] = tx, ty, tz
 
 
@@ -482,10 +488,11 @@ def _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B):
     (``state.sag`` updated). ``A``, ``B`` (4, 3): output, each pair's top and middle
     joints moved by ``shift``."""
     need = -np.inf
+    tops, mids = rig.tops, rig.mids
     for i in range(4):
         for r in range(3):
-            A[i, r] = P[rig.tops[i], r] + shift[r]
-            B[i, r] = P[rig.mids[i], r] + shift[r]
+            A[i, r] = P[tops[i], r] + shift[r]
+            B[i, r] = P[mids[i], r] + shift[r]
         ab = math.sqrt((A[i, 0] - B[i, 0]) ** 2 + (A[i, 1] - B[i, 1]) ** 2
                        + (A[i, 2] - B[i, 2]) ** 2)
         fb = math.sqrt((F[i, 0] - B[i, 0]) ** 2 + (F[i, 1] - B[i, 1]) ** 2
@@ -505,12 +512,13 @@ def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M):
     """The four legs' two-bone IK onto ``tgt`` (4, 3), the body lowered by ``sag``
     (``L`` updated)."""
     Fp = np.empty(3)
+    tops, mids, parents = rig.tops, rig.mids, rig.parents
     for i in range(4):
         A[i, 1] -= sag
         B[i, 1] -= sag
         Fp[0], Fp[1], Fp[2] = F[i, 0], F[i, 1] - sag, F[i, 2]
-        top, mid = rig.tops[i], rig.mids[i]
-        two_bone_row(A[i], B[i], Fp, G[rig.parents[top]], G[top], G[mid], tgt[i],
+        top, mid = tops[i], mids[i]
+        two_bone_row(A[i], B[i], Fp, G[parents[top]], G[top], G[mid], tgt[i],
                      M[8], M[9], M[10:14])
         L[top, :, :] = M[8]
         L[mid, :, :] = M[9]
