@@ -216,8 +216,10 @@ def bench_horse_data(frames: int, repeats: int) -> dict | None:
         return None
     from quadsim.commands import Command
 
+    from quadsim.io.clips import load_default_database
+
     ch = _load("horse")
-    base = HorseDataController(ch)
+    base = HorseDataController(ch, load_default_database(ch))
     cmd = Command(speed=3.0, turn_rate=STEP_TURN_RATE)
     for _ in range(60):
         base.step(cmd)
@@ -253,7 +255,7 @@ def bench_simulate_data(repeats: int) -> dict | None:
     each repeat: clip expansions and transitions computed anew)."""
     try:
         from quadsim.horse.controller import simulate as simulate_data
-        from quadsim.horse.database import load_default_database
+        from quadsim.io.clips import load_default_database
     except ImportError:
         return None
     ch = _load("horse")
@@ -409,7 +411,9 @@ if {full}:
     t4, c4 = time.perf_counter(), time.process_time()
     from quadsim.horse.controller import HorseDataController
     t5, c5 = time.perf_counter(), time.process_time()
-    HorseDataController(load_character("horse")).step(Command(speed=3.0))
+    from quadsim.io.clips import load_default_database
+    horse = load_character("horse")
+    HorseDataController(horse, load_default_database(horse)).step(Command(speed=3.0))
     t6, c6 = time.perf_counter(), time.process_time()
 print(t1 - t0, c1 - c0, t2 - t1, c2 - c1, t4 - t3, c4 - c3, t6 - t5, c6 - c5)
 """

@@ -52,7 +52,7 @@ def _check_mode(character, mode: str, label: str = "`mode`") -> None:
         raise InputError(f"{label} = {mode!r} is not a known mode; allowed: "
                          f"{', '.join(map(repr, MODES))}")
     if mode == "data":
-        from quadsim.horse.database import clip_folder
+        from quadsim.io.clips import clip_folder
 
         if clip_folder(character) is None:
             raise InputError(f"{label} = 'data' needs a character with a clip database; "
@@ -88,8 +88,10 @@ def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60
     _check_mode(character, mode)
     if mode == "data":
         from quadsim.horse.controller import HorseDataController
+        from quadsim.io.clips import load_default_database
 
-        return HorseDataController(character, database, dt=dt)
+        return HorseDataController(character, database or load_default_database(character),
+                                   dt=dt)
     from quadsim.locomotion.controller import ProceduralController
 
     return ProceduralController(character, dt=dt, seed=seed, gait=gait)
@@ -132,8 +134,10 @@ def simulate(character, commands: Script | Command, *, seconds: float,
                          "one frame (seconds * fps >= 1)")
     if mode == "data":
         from quadsim.horse.controller import simulate as simulate_data
+        from quadsim.io.clips import load_default_database
 
-        return simulate_data(character, commands, seconds, fps)
+        return simulate_data(character, commands, seconds, fps,
+                             database=load_default_database(character))
     from quadsim.locomotion.controller import simulate as simulate_procedural
 
     return simulate_procedural(character, commands, seconds, fps, seed=seed)

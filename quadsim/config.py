@@ -213,7 +213,7 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
                          f"allowed: {', '.join(map(repr, MODES))}")
     clip_gaits = ()
     if mode == "data":
-        from quadsim.horse.database import clip_folder, playable_gaits
+        from quadsim.io.clips import clip_folder, playable_gaits
 
         if clip_folder(character) is None:
             raise InputError(f"{src}: `mode` = 'data' needs a character with a clip "
@@ -414,7 +414,7 @@ def with_overrides(config: RunConfig, *, duration: float | None = None,
                                    turn_rate_deg_s=turn_rate_deg_s,
                                    label=lambda key: f"`{flags[key]}`")
         if config.mode == "data":
-            from quadsim.horse.database import playable_gaits
+            from quadsim.io.clips import playable_gaits
 
             _check_clip_gait(command, playable_gaits(character), character, gait, "`--gait`")
         changes["commands"] = Script.constant(command)

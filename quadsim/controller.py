@@ -31,7 +31,9 @@ __all__ = ["Controller", "Frame"]
 
 
 def _frozen(a, dtype=float) -> np.ndarray:
-    out = np.array(a, dtype=dtype)
+    """``a`` as a read-only array: taken as it is when it already has the dtype
+    (the frame then owns it; the caller must not write to it again), else copied."""
+    out = np.asarray(a, dtype=dtype)
     out.setflags(write=False)
     return out
 
@@ -70,7 +72,9 @@ class Frame:
         ``duty``; the data mode ``pitch`` (rad) and ``ground`` (4,) the
         ground height under each foot (m).
 
-    All arrays are read-only copies.
+    All arrays are read-only. Arrays given with the right dtype are taken, not
+    copied (a controller hands over arrays it made for this frame and does not
+    write to them again); anything else is converted.
     """
 
     skeleton: Skeleton

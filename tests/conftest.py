@@ -3,7 +3,7 @@ are loaded once per session (loading the database retargets eleven clips)."""
 
 import pytest
 
-from quadsim.horse.database import load_default_database
+from quadsim.io.clips import load_default_database
 from quadsim.skeleton.character import load_character
 
 

@@ -18,8 +18,13 @@ from quadsim.analysis.metrics import (
 from quadsim.cli import main
 from quadsim.config import load_config
 from quadsim.errors import InputError
-from quadsim.horse.controller import TURN_PER_STANCE, HorseDataController, simulate
+from quadsim.horse.controller import HorseDataController, simulate
+from quadsim.horse.steering import TURN_PER_STANCE
+from quadsim.controller import Controller, Frame
 from quadsim.horse.database import looped
+from quadsim.horse.playback import SPEED_REACH
+from quadsim.kinematics.rotations import quaternions_from_matrices
+from quadsim.io.clips import load_default_database
 from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, measure_contact_time
 from quadsim.io.bvh import read_bvh
 from quadsim.commands import Command, Script
@@ -30,7 +35,7 @@ FPS = 60
 
 @pytest.fixture(scope="module")
 def ctl(horse):
-    return HorseDataController(horse)
+    return HorseDataController(horse, load_default_database(horse))
 
 
 def _run(horse, script, duration, ctl):
@@ -162,7 +167,7 @@ def _classify(ctl, ph):
     def dist(a, b):
         d = np.abs((a - b + 0.5) % 1.0 - 0.5)
         return float(np.nansum(d))
-    return min(ctl.auto, key=lambda g: dist(ph, _template(ctl, g)))
+    return min(ctl.auto_gaits, key=lambda g: dist(ph, _template(ctl, g)))
 
 
 def test_speed_ramp_gait_sequence_from_footfalls(horse, ctl):
@@ -189,7 +194,7 @@ def test_speed_ramp_gait_sequence_from_footfalls(horse, ctl):
 
 
 def test_hysteresis_holds_gait_near_boundary(horse, ctl):
-    b = ctl.bounds[0]
+    b = ctl.player.bounds[0]
     times = tuple(float(t) for t in np.arange(0.0, 6.0, 0.25))
     speeds = [b * (1.0 + 0.03 * (-1) ** k) for k in range(len(times))]
     m = _run(horse, Script(times, tuple(Command(speed=float(v)) for v in speeds)), 6.0, ctl)
@@ -245,16 +250,53 @@ def test_leap_rises_and_returns_to_the_gait(horse, ctl):
     assert np.isfinite(m.root_positions).all()
 
 
-def test_step_returns_pose(horse, ctl):
+def test_step_returns_a_frame_of_the_controller_protocol(horse, ctl):
     c = HorseDataController(horse, ctl.db)
-    out = c.step(Command(speed=3.5))
+    assert isinstance(c, Controller) and c.mode == "data"
+    assert c.gait == "stand" and c.ground is None and c.speed == 0.0
+    first = c.step(Command(speed=3.5), 0.0)            # the starting pose: dt 0 allowed
+    assert first.time == 0.0
     out = c.step(Command(speed=3.5), 1 / 30)
     J = horse.skeleton.n_joints
-    assert out["local_rotations"].shape == (J, 3, 3)
-    assert out["positions"].shape == (J, 3) and out["root"].shape == (3,)
-    assert out["contacts"].shape == (4,) and out["gait"] == "trot"
+    assert isinstance(out, Frame) and out.skeleton is horse.skeleton
+    assert out.local_rotations.shape == (J, 3, 3)
+    assert out.positions.shape == (J, 3) and out.root.shape == (3,)
+    assert out.contacts.shape == (4,) and out.gait == "trot" == c.gait
+    assert out.time == pytest.approx(1 / 30) == c.time
+    assert out.speed == c.speed > 0 and out.heading == c.heading
+    assert set(out.extras) == {"pitch", "ground"} and out.extras["ground"].shape == (4,)
+    np.testing.assert_allclose(out.positions[0], out.root)
+    with pytest.raises(InputError, match="dt must be > 0"):
+        c.step(Command(speed=3.5), 0.0)
     with pytest.raises(InputError, match="gait 'pace'"):
         c.step(Command(speed=3.5, gait="pace"))
+
+
+def test_protocol_speeds_come_from_the_clips(horse, ctl):
+    """A held gait's preferred speed is the geometric mean of its clips' speeds; its cap
+    the fastest clip expanded by SPEED_REACH; the top speed the fastest cap."""
+    c = HorseDataController(horse, ctl.db)
+    assert c.gait_order == [g for g in ctl.db.gaits if g != "leap"]
+    assert c.auto_gaits == ["walk", "trot", "canter", "gallop"]
+    for g in c.gait_order:
+        speeds = [clip.speed for clip in ctl.db.by_gait(g)]
+        assert c.preferred_speed(g) == pytest.approx(np.exp(np.mean(np.log(speeds))))
+        assert c.gait_speed_cap(g) == pytest.approx(max(speeds) * SPEED_REACH[1])
+    assert c.max_speed == max(c.gait_speed_cap(g) for g in c.gait_order)
+    with pytest.raises(InputError, match="gait 'pace'"):
+        c.preferred_speed("pace")
+
+
+def test_step_frames_are_the_motion_simulate_records(horse, ctl):
+    script = Script((0.0, 1.0), (Command(speed=2.0), Command(speed=6.0, turn_rate=0.3)))
+    m = _run(horse, script, 2.5, ctl)
+    c = HorseDataController(horse, ctl.db, dt=1 / FPS)
+    frames = [c.step(script.command_at(i / FPS)) for i in range(len(m))]
+    np.testing.assert_array_equal(np.array([f.root for f in frames]), m.root_positions)
+    np.testing.assert_array_equal(quaternions_from_matrices(np.array(
+        [f.local_rotations for f in frames])), m.rotations)
+    assert [f.gait for f in frames] == list(m.gaits)
+    np.testing.assert_array_equal([f.extras["pitch"] for f in frames], m.extras["pitch"])
 
 
 HEAD = 'character = "{}"\nmode = "data"\nduration = 2.0\nfps = 30\n'

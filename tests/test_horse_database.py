@@ -8,13 +8,8 @@ import pytest
 
 from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
 from quadsim.errors import InputError
-from quadsim.horse.database import (
-    CLIP_GAITS,
-    cut_cycles,
-    load_database,
-    looped,
-    pose_distance_deg,
-)
+from quadsim.horse.database import CLIP_GAITS, cut_cycles, looped, pose_distance_deg
+from quadsim.io.clips import load_database
 from quadsim.skeleton.motion import Motion
 
 

@@ -15,13 +15,13 @@ import numpy as np
 import pytest
 
 from quadsim.analysis.metrics import foot_contacts, foot_slide
+from quadsim.analysis.transitions import transition_quality
 from quadsim.horse.speed import expand
 from quadsim.horse.timewarp import (
     leg_stance,
     stance_aligned_times,
     synchronous_transition,
     transition_motion,
-    transition_quality,
 )
 
 GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop")

@@ -15,10 +15,16 @@ from quadsim.config import parse_config
 from quadsim.errors import InputError
 from quadsim.horse.controller import HorseDataController
 from quadsim.horse.slope import Ground
+from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.commands import Command, Script
 from quadsim.skeleton.motion import Motion
 
 FPS = 60
+
+
+def _ground(ctl):
+    """The controller's ground as a height field (the flat plane while it has no ramp)."""
+    return ctl.ground if ctl.ground is not None else Ground()
 
 
 def _run(horse, db, script, seconds, rotations=None):
@@ -32,10 +38,10 @@ def _run(horse, db, script, seconds, rotations=None):
     pos, labels = [], []
     for i in range(int(round(seconds * FPS))):
         out = ctl.step(script.command_at(i / FPS))
-        pos.append(out["positions"])
-        labels.append(out["gait"])
+        pos.append(out.positions)
+        labels.append(out.gait)
         if rotations is not None:
-            rotations.append(out["rotations"])
+            rotations.append(quaternions_from_matrices(out.local_rotations))
     return np.array(pos), labels, ctl
 
 
@@ -107,7 +113,7 @@ def test_heading_follows_the_turn_rate(horse, db, speed, rate_deg):
     d = r[k + L] - r[k]
     travel = np.arctan2(d[:, 0], d[:, 2])
     assert np.abs(_wrap(travel - want[-1])).max() < math.radians(2.0), np.degrees(travel)
-    slide, ground_err, under = _ok_feet(horse, P, ctl.ground)
+    slide, ground_err, under = _ok_feet(horse, P, _ground(ctl))
     assert slide < 0.005, slide
     assert ground_err < 0.005 and under > -0.001, (ground_err, under)
 
@@ -117,7 +123,7 @@ def test_heading_command_is_reached(horse, db):
     psi = _cycle_mean(np.unwrap(_heading(horse, P)), ctl.clip.frames)
     assert abs(math.degrees(psi[-1]) + 70.0) < 0.5, math.degrees(psi[-1])
     assert np.all(np.diff(psi) <= 1e-9)          # turns right only, no overshoot
-    slide, ground_err, _ = _ok_feet(horse, P, ctl.ground)
+    slide, ground_err, _ = _ok_feet(horse, P, _ground(ctl))
     assert slide < 0.005 and ground_err < 0.005
 
 
@@ -163,7 +169,7 @@ def test_turning_through_a_transition_and_a_leap(horse, db):
         turned = psi[idx[-1]] - psi[idx[0]]
         want = rate * (idx[-1] - idx[0]) / FPS
         assert abs(turned - want) < math.radians(3.0), (math.degrees(turned), math.degrees(want))
-    slide, ground_err, under = _ok_feet(horse, P, ctl.ground)
+    slide, ground_err, under = _ok_feet(horse, P, _ground(ctl))
     assert slide < 0.005 and ground_err < 0.005 and under > -0.001
 
 
@@ -205,15 +211,15 @@ def test_slope_up_then_down_with_a_turn(horse, db):
                      Command(speed=3.5)))
     P, _, ctl = _run(horse, db, script, 8.0)
     assert len(ctl.ground.ramps) == 3
-    slide, ground_err, under = _ok_feet(horse, P, ctl.ground)
+    slide, ground_err, under = _ok_feet(horse, P, _ground(ctl))
     assert slide < 0.005 and ground_err < 0.005 and under > -0.001, (slide, ground_err, under)
     y = P[:, 0, 1]
     assert y.max() - y[0] > 0.3                     # went up, then down again
     assert y[-1] < y.max() - 0.2
 
 
-def test_bad_slopes_are_rejected(horse, tmp_path):
-    ctl = HorseDataController(horse)
+def test_bad_slopes_are_rejected(horse, db, tmp_path):
+    ctl = HorseDataController(horse, db)
     with pytest.raises(InputError, match=r"slope.*out of range.*-20 to 20 deg"):
         ctl.step(Command(speed=3.0, slope=math.radians(35.0)))
     base = {"character": "horse", "duration": 2.0, "fps": 30, "mode": "data",
@@ -235,7 +241,7 @@ def test_leap_clears_the_clip_height_and_lands_still(horse, db):
                           rots)
     leap = [i for i, g in enumerate(labels) if g == "leap"]
     assert leap and labels[-1] == "canter"
-    feet, above, c = _measure(horse, P, ctl.ground)
+    feet, above, c = _measure(horse, P, _ground(ctl))
     # clearance: the highest point of the lowest foot (and of every joint) in the leap
     assert above[leap].min(axis=1).max() >= ctl.leap_clip.height - 1e-3
     joints = P[leap][..., 1].min(axis=1).max()
@@ -264,7 +270,7 @@ def test_stand_still_set_off_and_stop_again(horse, db):
                     (Command(speed=0.0), Command(speed=1.5), Command(speed=0.0),
                      Command(speed=3.5)))
     P, labels, ctl = _run(horse, db, script, 9.5)
-    feet, above, c = _measure(horse, P, ctl.ground)
+    feet, above, c = _measure(horse, P, _ground(ctl))
     # standing at the start: nothing moves, all four feet down
     assert np.abs(P[:FPS] - P[0]).max() < 1e-6
     assert np.abs(above[:FPS]).max() < 0.005 and c[5:FPS - 5].all()

@@ -381,6 +381,7 @@ def test_data_config_ground_follows_the_slope(tmp_path):
         focal = np.array(scene.plotter.renderer.GetActiveCamera().GetFocalPoint())
         assert focal[1] == pytest.approx(scene._floor + 0.75 * scene.scale, abs=1e-6)
         assert scene._floor > 0.5
+        p._update_text(force=True)      # the HUD refreshes at most every HUD_INTERVAL of wall time
         assert "ground slope +8.0 deg" in p._text.GetText(2)
     finally:
         p.close()

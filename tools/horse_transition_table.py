@@ -5,7 +5,7 @@ at four phases of the old gait's cycle (t_start = 0, 0.25, 0.5, 0.75 cycles):
 120 transitions per set, each made twice -- asynchronous time warping
 (:func:`quadsim.horse.timewarp.transition_motion`) and the synchronous
 baseline (:func:`~quadsim.horse.timewarp.synchronous_transition`) -- and
-measured on the produced motion (:func:`~quadsim.horse.timewarp.transition_quality`):
+measured on the produced motion (:func:`~quadsim.analysis.transitions.transition_quality`):
 
 * slide: largest horizontal travel of a foot from its touchdown place during
   a contact, contacts measured from the foot positions (low and slow, trimmed
@@ -40,9 +40,10 @@ import time
 
 import numpy as np
 
-from quadsim.horse.database import load_default_database
+from quadsim.analysis.transitions import transition_quality
 from quadsim.horse.speed import expand
-from quadsim.horse.timewarp import transition_motion, transition_quality
+from quadsim.horse.timewarp import transition_motion
+from quadsim.io.clips import load_default_database
 from quadsim.skeleton.character import load_character
 
 GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop")

@@ -60,7 +60,11 @@ def _run_config(quadsim, path):
 
     cfg = load_config(path)
     if cfg.mode == "data":
-        return simulate_data(cfg.load_character(), cfg.commands, cfg.duration, cfg.fps)
+        from quadsim.io.clips import load_default_database
+
+        ch = cfg.load_character()
+        return simulate_data(ch, cfg.commands, cfg.duration, cfg.fps,
+                             database=load_default_database(ch))
     return simulate(cfg.load_character(), cfg.commands, cfg.duration, cfg.fps, seed=cfg.seed)
 
 
@@ -77,7 +81,9 @@ def _run_constant(quadsim, cid, gait, speed, seconds, mode, turn):
     script = Script.constant(constant_command(ch, speed=speed, gait=gait,
                                               turn_rate_deg_s=turn))
     if mode == "data":
-        return simulate_data(ch, script, seconds, 60.0)
+        from quadsim.io.clips import load_default_database
+
+        return simulate_data(ch, script, seconds, 60.0, database=load_default_database(ch))
     return simulate(ch, script, seconds, 60.0, seed=0)
 
 

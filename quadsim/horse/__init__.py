@@ -1,25 +1,23 @@
 """The data-driven horse mode: a clip database expanded to any speed.
 
-Modules: :mod:`.database` (looped BVH clips and their manifest; the
-:func:`~.database.cut_cycles` builder), :mod:`.legs` (two-bone IK that keeps
+Modules: :mod:`.database` (looped clips and the database of them; the
+:func:`~.database.cut_cycles` builder; clip folders are read by
+:mod:`quadsim.io.clips`), :mod:`.legs` (two-bone IK that keeps
 the lower leg; holding stance feet), :mod:`.speed` (Hoyt's contact-time law,
 speed expansion), :mod:`.timewarp` (asynchronous time warping between gaits),
 :mod:`.root` (foot phases and the root from the landing feet),
 :mod:`.turning` (the head-first lead into turns and slopes, planted feet),
 :mod:`.slope` (the ground: flat, or planar ramps along the heading),
+:mod:`.place_kernel` (the compiled per-frame work) and :mod:`.bundles` (the
+named bundles it reads), :mod:`.playback` (gait bands, expanded clips, poses
+at a generic time), :mod:`.placement` (the world placement each frame),
+:mod:`.steering` (heading and turn limits; clamp notices),
 :mod:`.controller` (:class:`~.controller.HorseDataController`, the interactive
-data-driven horse, and :func:`~.controller.simulate`, used by ``mode = "data"``).
+data-driven horse, a :class:`quadsim.controller.Controller`, and
+:func:`~.controller.simulate`, used by ``mode = "data"``).
 """
 
-from .database import (
-    Clip,
-    ClipDatabase,
-    Cycle,
-    clip_folder,
-    cut_cycles,
-    load_database,
-    load_default_database,
-)
+from .database import Clip, ClipDatabase, Cycle, cut_cycles
 from .controller import HorseDataController
 from .controller import simulate as simulate_data
 from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
@@ -33,13 +31,10 @@ __all__ = [
     "ClipDatabase",
     "Cycle",
     "blend_frames",
-    "clip_folder",
     "contact_time",
     "cut_cycles",
     "expand",
     "leg_times",
-    "load_database",
-    "load_default_database",
     "simulate_data",
     "step_length",
     "synchronous_transition",

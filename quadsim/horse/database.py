@@ -1,22 +1,12 @@
-"""A database of looped gait clips: BVH files plus a TOML manifest.
+"""A database of looped gait clips, and the builder that cuts clips out of long takes.
 
-The manifest (``manifest.toml`` in the clip folder) has one table per clip::
-
-    [clips.walk_1.4]
-    file = "walk_1.4.bvh"          # BVH in the same folder, metres
-    gait = "walk"                  # walk, amble, trot, rack, canter, gallop, leap
-    speed = 1.4                    # forward speed of the clip (m/s)
-    frames = 52                    # frames per cycle (the BVH holds at least this many)
-    touchdown = { LF = 13, RF = 39, LH = 0, RH = 26 }   # frame of each foot's touchdown
-    lead = "left"                  # canter, gallop and leap: the leading fore leg
-    source = "how the clip was made"
-
-A leap clip also gives ``start_gait`` (the gait it starts from) and
-``height`` (the clearance of its feet at the top of the flight, m).
-
-Clips are read onto the character's skeleton by joint name: every joint of
-the character's legs must be present in the BVH; other character joints the
-file lacks stay at rest.
+:class:`Clip` is one looped clip with its labels (gait, speed, frames per
+cycle, each foot's touchdown frame, the leading leg), :class:`ClipDatabase`
+the clips of one character. Reading a clip folder (a ``manifest.toml`` and
+its BVH files) is file work and lives in :mod:`quadsim.io.clips`
+(:func:`~quadsim.io.clips.load_database`,
+:func:`~quadsim.io.clips.load_default_database`); the engine takes the
+database it is given.
 
 :func:`cut_cycles` is the builder: it cuts steady, looped cycles out of a long
 take by the measured foot contacts and labels their touchdowns.
@@ -24,7 +14,6 @@ take by the measured foot contacts and labels their touchdowns.
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,6 +22,7 @@ import numpy as np
 from ..skeleton.contacts import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..kinematics.rotations import quaternion_multiply, quaternion_slerp
+from .place_kernel import sample_rows
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 
@@ -41,9 +31,8 @@ LEGS = ("LF", "RF", "LH", "RH")
 CLIP_GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop", "leap")
 #: Gaits with a leading fore leg.
 ASYMMETRIC = ("canter", "gallop", "leap")
-_ALIASES = {"transverse_gallop": "gallop"}
-_KEYS = {"file", "gait", "speed", "frames", "touchdown", "lead", "source",
-         "start_gait", "height"}
+#: Other names a clip's or a command's gait may be given by.
+GAIT_ALIASES = {"transverse_gallop": "gallop"}
 #: Largest joint rotation (deg) between a cycle's first pose and the pose one
 #: period later for the cycle to count as looped.
 LOOP_TOLERANCE_DEG = 6.0
@@ -100,7 +89,7 @@ class ClipDatabase:
 
     def by_gait(self, gait: str) -> list[Clip]:
         """Clips of a gait, slowest first."""
-        gait = _ALIASES.get(gait, gait)
+        gait = GAIT_ALIASES.get(gait, gait)
         return sorted((c for c in self.clips.values() if c.gait == gait), key=lambda c: c.speed)
 
     def nearest(self, gait: str, speed: float) -> Clip:
@@ -115,171 +104,19 @@ class ClipDatabase:
         return tuple(g for g in CLIP_GAITS if any(c.gait == g for c in self.clips.values()))
 
 
-# ------------------------------------------------------------------ loading
-def load_database(folder, character: Character) -> ClipDatabase:
-    """Read and validate a clip folder (``manifest.toml`` plus BVH files).
-
-    Raises
-    ------
-    InputError
-        Naming the manifest, the clip and the field at fault.
-    """
-    from ..io.bvh import read_bvh  # io sits above; imported at use
-
-    folder = Path(folder)
-    man = folder / "manifest.toml"
-    if not man.is_file():
-        raise InputError(f"{folder}: no manifest.toml in the clip folder")
-    try:
-        data = tomllib.loads(man.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(f"{man}: not valid TOML: {e}") from None
-    unknown = set(data) - {"clips", "description"}
-    if unknown:
-        raise InputError(f"{man}: unknown top-level key(s) {sorted(unknown)}; "
-                         "allowed: clips, description")
-    table = data.get("clips")
-    if not isinstance(table, dict) or not table:
-        raise InputError(f"{man}: `clips` must be a table with at least one clip")
-    clips = {}
-    for name, entry in table.items():
-        where = f"{man}: clip {name!r}"
-        clips[name] = _load_clip(name, entry, where, folder, character, read_bvh)
-    return ClipDatabase(character, clips, folder)
-
-
-def _load_clip(name, entry, where, folder, character, read_bvh) -> Clip:
-    if not isinstance(entry, dict):
-        raise InputError(f"{where}: must be a table")
-    bad = set(entry) - _KEYS
-    if bad:
-        raise InputError(f"{where}: unknown field(s) {sorted(bad)}; allowed: {sorted(_KEYS)}")
-    for key in ("file", "gait", "speed", "frames", "touchdown"):
-        if key not in entry:
-            raise InputError(f"{where}: missing field `{key}`")
-    gait = _ALIASES.get(entry["gait"], entry["gait"])
-    if gait not in CLIP_GAITS:
-        raise InputError(f"{where}: `gait` = {entry['gait']!r} is not a known gait; "
-                         f"allowed: {', '.join(CLIP_GAITS)}")
-    speed = entry["speed"]
-    if isinstance(speed, bool) or not isinstance(speed, (int, float)) or not speed > 0:
-        raise InputError(f"{where}: `speed` must be a positive number (m/s), got {speed!r}")
-    frames = entry["frames"]
-    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 4:
-        raise InputError(f"{where}: `frames` must be an integer >= 4, got {frames!r}")
-    td = entry["touchdown"]
-    if not isinstance(td, dict):
-        raise InputError(f"{where}: `touchdown` must be a table {{ LF = .., RF = .., LH = .., RH = .. }}")
-    for leg in LEGS:
-        if leg not in td:
-            raise InputError(f"{where}: `touchdown` is missing foot {leg}")
-    extra = set(td) - set(LEGS)
-    if extra:
-        raise InputError(f"{where}: `touchdown` has unknown foot/feet {sorted(extra)}; "
-                         f"allowed: {', '.join(LEGS)}")
-    tdf = []
-    for leg in LEGS:
-        v = td[leg]
-        if isinstance(v, bool) or not isinstance(v, int) or not 0 <= v < frames:
-            raise InputError(f"{where}: `touchdown.{leg}` = {v!r} is out of range; "
-                             f"expected a frame in [0, {frames})")
-        tdf.append(v)
-    lead = entry.get("lead")
-    if gait in ASYMMETRIC:
-        if lead not in ("left", "right"):
-            raise InputError(f"{where}: `lead` must be \"left\" or \"right\" for a {gait} clip, "
-                             f"got {lead!r}")
-    elif lead is not None:
-        raise InputError(f"{where}: `lead` is only for {', '.join(ASYMMETRIC)} clips")
-    start_gait = entry.get("start_gait")
-    height = entry.get("height")
-    if gait == "leap":
-        if _ALIASES.get(start_gait, start_gait) not in CLIP_GAITS[:-1]:
-            raise InputError(f"{where}: a leap clip needs `start_gait`, one of "
-                             f"{', '.join(CLIP_GAITS[:-1])}; got {start_gait!r}")
-        start_gait = _ALIASES.get(start_gait, start_gait)
-        if isinstance(height, bool) or not isinstance(height, (int, float)) or not height > 0:
-            raise InputError(f"{where}: a leap clip needs `height` > 0 (m), got {height!r}")
-    path = folder / str(entry["file"])
-    if not path.is_file():
-        raise InputError(f"{where}: `file` {str(entry['file'])!r}: BVH file not found at {path}")
-    try:
-        raw = read_bvh(path)
-    except (InputError, ValueError, OSError) as e:
-        raise InputError(f"{where}: `file` {path.name!r} is not a usable BVH: {e}") from None
-    motion = _retarget(raw, character, f"{where}: `file` {path.name!r}")
-    if len(motion) < frames:
-        raise InputError(f"{where}: `frames` = {frames} is out of range: "
-                         f"the BVH holds only {len(motion)} frames")
-    motion = motion[:frames]
-    return Clip(name, gait, float(speed), frames, np.array(tdf), lead, motion,
-                str(entry.get("source", "")), start_gait,
-                None if height is None else float(height))
-
-
-def _retarget(raw: Motion, character: Character, where: str) -> Motion:
-    """Put a read motion on the character's skeleton by joint name."""
-    skel = character.skeleton
-    names = set(raw.skeleton.names)
-    leg_joints = [skel.names[j] for leg in character.legs for j in leg.chain]
-    missing = [n for n in leg_joints if n not in names]
-    if missing:
-        raise InputError(f"{where}: joint names do not match the character's legs "
-                         f"({character.id}); missing {', '.join(missing[:6])}"
-                         f"{' ...' if len(missing) > 6 else ''}")
-    if raw.skeleton.names[0] != skel.names[0]:
-        raise InputError(f"{where}: the root joint is {raw.skeleton.names[0]!r}, "
-                         f"expected {skel.names[0]!r}")
-    T = len(raw)
-    rot = np.zeros((T, skel.n_joints, 4))
-    rot[..., 0] = 1.0
-    for j, n in enumerate(skel.names):
-        if n in names:
-            rot[:, j] = raw.rotations[:, raw.skeleton.index(n)]
-    return Motion(skel, raw.fps, raw.root_positions, rot, foot_joints=character.foot_joints)
-
-
-def clip_folder(character: Character) -> Path | None:
-    """The shipped clip folder of a character, ``characters/<id>/clips``, if it exists."""
-    from ..skeleton.character import characters_dir
-
-    d = characters_dir() / character.id / "clips"
-    return d if (d / "manifest.toml").is_file() else None
-
-
-def playable_gaits(character: Character) -> tuple[str, ...]:
-    """The gaits the character's shipped clips can be asked for (leap clips excepted),
-    read from the manifest alone (no clip is loaded); empty without a clip folder."""
-    d = clip_folder(character)
-    if d is None:
-        return ()
-    try:
-        table = tomllib.loads((d / "manifest.toml").read_text(encoding="utf-8")).get("clips")
-    except tomllib.TOMLDecodeError:
-        return ()                       # loading the database names the fault
-    gaits = {_ALIASES.get(e.get("gait"), e.get("gait")) for e in (table or {}).values()
-             if isinstance(e, dict)}
-    return tuple(g for g in CLIP_GAITS if g in gaits and g != "leap")
-
-
-def load_default_database(character: Character) -> ClipDatabase:
-    """The character's shipped clip database (``characters/<id>/clips``)."""
-    d = clip_folder(character)
-    if d is None:
-        raise InputError(f"character {character.id!r} has no clip database "
-                         f"(characters/{character.id}/clips/manifest.toml)")
-    return load_database(d, character)
-
-
 # ------------------------------------------------------------------ building
 def sample_motion(motion: Motion, frames) -> tuple[np.ndarray, np.ndarray]:
     """Root positions and rotations at fractional frame indices.
+
+    The root linearly, every joint by shortest-path slerp, between the two
+    frames about each index (compiled: :func:`~quadsim.horse.place_kernel.sample_row`,
+    as the controller samples its clips).
 
     Parameters
     ----------
     motion : Motion
     frames : array-like, shape (n,)
-        Fractional frame indices within ``[0, T - 1]``.
+        Fractional frame indices within ``[0, T - 1]`` (clipped to it).
 
     Returns
     -------
@@ -287,13 +124,24 @@ def sample_motion(motion: Motion, frames) -> tuple[np.ndarray, np.ndarray]:
     rotations : ndarray, shape (n, J, 4)
     """
     f = np.clip(np.asarray(frames, dtype=float), 0, len(motion) - 1)
-    i0 = np.floor(f).astype(int)
+    i0 = np.floor(f).astype(np.int64)
     i1 = np.minimum(i0 + 1, len(motion) - 1)
-    a = f - i0
-    root = motion.root_positions[i0] * (1 - a[:, None]) + motion.root_positions[i1] * a[:, None]
-    J = motion.skeleton.n_joints
-    rot = quaternion_slerp(motion.rotations[i0], motion.rotations[i1],
-                           np.broadcast_to(a[:, None], (len(f), J)))
+    return sample_frames(motion.root_positions, motion.rotations, i0, i1, f - i0)
+
+
+def sample_frames(roots, rotations, i0, i1, a) -> tuple[np.ndarray, np.ndarray]:
+    """Poses a fraction ``a`` (n,) of the way from frames ``i0`` to ``i1`` (n,) int.
+
+    ``roots`` (F, 3) (m) and ``rotations`` (F, J, 4) quaternions; returns the
+    roots (n, 3) and rotations (n, J, 4) (:func:`~quadsim.horse.place_kernel.sample_rows`).
+    """
+    n = len(i0)
+    root = np.empty((n, 3))
+    rot = np.empty((n, rotations.shape[1], 4))
+    sample_rows(np.ascontiguousarray(roots, dtype=float),
+                np.ascontiguousarray(rotations, dtype=float),
+                np.ascontiguousarray(i0, dtype=np.int64), np.ascontiguousarray(i1, dtype=np.int64),
+                np.ascontiguousarray(a, dtype=float), root, rot)
     return root, rot
 
 
@@ -323,7 +171,7 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
     """Cut steady, looped stride cycles out of a long take by its foot contacts.
 
     Contacts are measured from the foot positions
-    (:func:`quadsim.analysis.metrics.foot_contacts`); a cycle runs from one
+    (:func:`quadsim.skeleton.contacts.foot_contacts`); a cycle runs from one
     touchdown of the ``reference`` foot (default LH) to its next. Cycles whose
     period differs from the take's median period by more than
     ``steady_tolerance`` (fraction) are not steady and skipped. The chosen
@@ -503,21 +351,19 @@ def looped(motion: Motion, repeats: int, speed: float) -> Motion:
 __all__ = [
     "ASYMMETRIC",
     "CLIP_GAITS",
+    "GAIT_ALIASES",
     "LEGS",
     "LOOP_TOLERANCE_DEG",
     "Clip",
     "ClipDatabase",
     "Cycle",
-    "clip_folder",
     "contacts_from_stance",
     "cut_cycles",
     "cycle_stance",
-    "playable_gaits",
     "label_touchdowns",
-    "load_database",
-    "load_default_database",
     "looped",
     "pin_cycle",
     "pose_distance_deg",
+    "sample_frames",
     "sample_motion",
 ]

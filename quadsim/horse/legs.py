@@ -4,10 +4,9 @@
 and the joint below it) so that the foot joint reaches a target, leaving the
 joints above the pair and the bones below its middle joint as they were -- the
 clip's pastern and hoof angles survive the edit. The IK itself is
-:func:`two_bone`, batched over any leading axes; the frame loops of
-:func:`place_feet` and of the data-driven controller run its compiled
-one-leg form :func:`quadsim.horse.place_kernel.two_bone_row` (tested
-against it).
+:func:`two_bone`, batched over any leading axes, each item the one compiled
+two-bone step :func:`quadsim.kinematics.chains.two_bone_row` that the frame
+loops of :func:`place_feet` and of the data-driven controller run.
 :func:`pin_stance` uses it to hold every foot still, on the ground, through
 each of its contacts: at the contact's middle (looped clips) or where the
 foot landed (edited motion such as a gait transition, the swing easing onto
@@ -19,12 +18,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kinematics.rotations import matrices_from_axis_angles
+from ..kinematics.chains import two_bone_rows
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from .place_kernel import place_feet_rows
 
-LATERAL = np.array([1.0, 0.0, 0.0])
 
 
 def two_bone(A: np.ndarray, B: np.ndarray, F: np.ndarray, W_parent: np.ndarray,
@@ -35,8 +33,10 @@ def two_bone(A: np.ndarray, B: np.ndarray, F: np.ndarray, W_parent: np.ndarray,
     The middle joint bends about the pair's plane normal until the top-to-foot
     distance is the top-to-target distance (clamped to what the bones
     reach), then the top joint swings the whole pair onto the target. The
-    bones below the middle joint keep their local angles. Every array has the
-    same leading axes (frames, legs, or both), so one call moves any batch.
+    bones below the middle joint keep their local angles. The arrays
+    broadcast over their leading axes (frames, legs, or both), so one call
+    moves any batch; each item is the compiled
+    :func:`quadsim.kinematics.chains.two_bone_row`, the one the controller runs.
 
     Parameters
     ----------
@@ -62,28 +62,18 @@ def two_bone(A: np.ndarray, B: np.ndarray, F: np.ndarray, W_parent: np.ndarray,
     another bend than the pose's, the result jumps by twice the change of bend,
     so callers keep such targets at the pose's own distance.
     """
-    u, w = A - B, F - B
-    l1 = np.linalg.norm(u, axis=-1)
-    l2 = np.linalg.norm(w, axis=-1)
-    d = np.clip(np.linalg.norm(targets - A, axis=-1), np.abs(l1 - l2) + 1e-6, l1 + l2 - 1e-6)
-    n = np.cross(u, w)
-    nn = np.linalg.norm(n, axis=-1, keepdims=True)
-    n = np.where(nn > 1e-9, n / np.maximum(nn, 1e-12), LATERAL)
-    beta0 = np.arccos(np.clip(np.sum(u * w, -1) / (l1 * l2), -1.0, 1.0))
-    beta1 = np.arccos(np.clip((l1 ** 2 + l2 ** 2 - d ** 2) / (2 * l1 * l2), -1.0, 1.0))
-    Rm = matrices_from_axis_angles(n, beta1 - beta0)
-    a = np.einsum("...ij,...j->...i", Rm, w) + B - A
-    b = targets - A
-    a = a / np.linalg.norm(a, axis=-1, keepdims=True)
-    b = b / np.maximum(np.linalg.norm(b, axis=-1, keepdims=True), 1e-12)
-    ax = np.cross(a, b)
-    s = np.linalg.norm(ax, axis=-1)
-    ang = np.arctan2(s, np.sum(a * b, -1))
-    ax = np.where(s[..., None] > 1e-12, ax / np.maximum(s, 1e-12)[..., None], n)
-    Rs = matrices_from_axis_angles(ax, ang)
-    Wtop = Rs @ W_top
-    Wmid = Rs @ Rm @ W_mid
-    return np.swapaxes(W_parent, -1, -2) @ Wtop, np.swapaxes(Wtop, -1, -2) @ Wmid
+    vecs = [np.asarray(x, dtype=float) for x in (A, B, F, targets)]
+    mats = [np.asarray(x, dtype=float) for x in (W_parent, W_top, W_mid)]
+    lead = np.broadcast_shapes(*(v.shape[:-1] for v in vecs), *(m.shape[:-2] for m in mats))
+    n = int(np.prod(lead, dtype=np.int64))
+    A_, B_, F_, T_ = (np.ascontiguousarray(np.broadcast_to(v, lead + (3,))).reshape(n, 3)
+                      for v in vecs)
+    Wp, Wt, Wm = (np.ascontiguousarray(np.broadcast_to(m, lead + (3, 3))).reshape(n, 3, 3)
+                  for m in mats)
+    L_top = np.empty((n, 3, 3))
+    L_mid = np.empty((n, 3, 3))
+    two_bone_rows(A_, B_, F_, Wp, Wt, Wm, T_, L_top, L_mid)
+    return L_top.reshape(lead + (3, 3)), L_mid.reshape(lead + (3, 3))
 
 
 def place_feet(character: Character, motion: Motion, targets, legs=(0, 1, 2, 3)) -> np.ndarray:

@@ -2,47 +2,33 @@
 
 :class:`~quadsim.horse.controller.HorseDataController` keeps its mode logic
 (gait choice, transitions, leaps, standing) in Python on scalars and hands
-the numerical work of a frame to three numba kernels:
+the numerical work of a frame to numba kernels:
 
 * :func:`sample_row` -- a pose between two clip frames: the root linearly,
-  every joint by shortest-path slerp (as :func:`~quadsim.kinematics.rotations.quaternion_slerp`);
+  every joint by shortest-path slerp (:func:`~quadsim.kinematics.rotations.slerp_one`);
 * :func:`stance_row` -- which feet a looped clip holds still at a generic
-  time (as :func:`~quadsim.horse.root.in_stance` on the time and on the two
-  frames about it);
-* :func:`place_row` -- the whole world placement of
-  :meth:`HorseDataController._emit <quadsim.horse.controller.HorseDataController._emit>`:
-  travel along the heading, pitch with the ground, the body lead
+  time (on the time and on the two frames about it);
+* :func:`place_row` -- the whole world placement of a frame: travel along
+  the heading, pitch with the ground, the body lead
   (:class:`~quadsim.horse.turning.BodyLead`), forward kinematics, the
   planted feet moving the root (equation 11), foot targets
   (:class:`~quadsim.horse.turning.FootPlanter`), lowering for reach, the
-  two-bone IK of the four legs (:func:`two_bone_row`, one leg of
-  :func:`~quadsim.horse.legs.two_bone`), quaternions
-  (:func:`~quadsim.kinematics.rotations.quaternion_from_matrix`) and the final forward kinematics
-  (:func:`fk_row`).
+  two-bone IK of the four legs
+  (:func:`~quadsim.kinematics.chains.two_bone_row`), quaternions and the
+  final forward kinematics (:func:`~quadsim.kinematics.chains.fk_row`);
+* :func:`place_feet_rows` -- legs of many poses put on their targets (the
+  clip editor's :func:`~quadsim.horse.legs.place_feet`).
 
-The array forms these pieces mirror (forward kinematics, the two-bone IK,
-the ramp ground, the contact test, the motion sampler) stay the general API -- clip editing and transitions run on whole motions -- and are
-the reference the compiled pieces are tested against
-(``tests/test_horse_kernels.py``). The placement itself (lead, planting,
-reach) exists only here, described in :mod:`quadsim.horse.turning` and the
-controller's notes.
-
-Packed inputs (all float64 unless said; m, s, rad):
-
-``ramps`` (R, 6)
-    :attr:`Ground.table <quadsim.horse.slope.Ground.table>`: origin x, z,
-    height, direction x, z, ``tan(slope)`` of each ramp, oldest first.
-``body`` (n, 4)
-    :attr:`BodyLead.state <quadsim.horse.turning.BodyLead.state>`: per chain
-    joint its yaw lead, pitch lead (updated), share and follow time constant.
-``feet_state`` (4, 12)
-    :attr:`FootPlanter.state <quadsim.horse.turning.FootPlanter.state>`: per
-    leg planted (0/1), plant x, y, z, offset x, z, hold x, z, time in the air,
-    drop, contact (0/1) and a spare column; row 0's spare is 1 once started.
-``scal`` (:data:`N_SCALARS`,)
-    The controller's placement state and constants, columns :data:`SCALARS`.
-``ints`` (n_ints,) int64
-    ``[n_chain, chain..., feet (4), tops (4), mids (4)]``.
+Inputs and state travel as named bundles (``typing.NamedTuple`` of arrays
+and scalars, which numba compiles and caches like arrays):
+:class:`~.bundles.PlaceRig` (the character's joints and body geometry),
+:class:`~.bundles.PlaceTuning` (the placement's constants),
+:class:`~.bundles.PlaceState` (what the placement carries from frame to
+frame: root position, pitch, sag, the body lead's and the feet's state),
+:class:`~.bundles.PlaceFrame` (one frame's clip pose and heading) and
+:class:`~.bundles.PlacedPose` (the output buffers), all in :mod:`.bundles`. The ground is the ramp table of
+:attr:`Ground.table <quadsim.horse.slope.Ground.table>`, (R, 6): origin x,
+z, height, direction x, z and ``tan(slope)`` of each ramp, oldest first.
 """
 
 from __future__ import annotations
@@ -55,18 +41,14 @@ from numba import njit
 from ..kinematics.chains import fk_row, mul_into, mul_tn_into, two_bone_row
 from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
 
-#: Columns of the ``scal`` array of :func:`place_row` (state first, then constants).
-SCALARS = ("pitch", "sag", "centre", "hind", "fore", "look_distance", "pitch_tau",
-           "sag_tau", "reach", "shift_speed", "root_band", "ground_band", "swing_fade",
-           "swing_low", "swing_high", "max_yaw_lead", "max_pitch_lead")
-(S_PITCH, S_SAG, S_CENTRE, S_HIND, S_FORE, S_LOOK, S_PITCH_TAU, S_SAG_TAU, S_REACH,
- S_SHIFT_SPEED, S_ROOT_BAND, S_GROUND_BAND, S_SWING_FADE, S_SWING_LOW, S_SWING_HIGH,
- S_MAX_YAW, S_MAX_PITCH) = range(len(SCALARS))
-N_SCALARS = len(SCALARS)
-
-#: Columns of the ``feet_state`` rows.
-F_PLANTED, F_PLANT, F_OFFSET, F_HOLD, F_AIR, F_DROP, F_CONTACT, F_SPARE = 0, 1, 4, 6, 8, 9, 10, 11
-FEET_COLUMNS = 12
+#: Slack (cycles) of the contact test at a contact's ends (rounding of measured ends).
+CONTACT_SLACK = 1e-9
+#: A generic time at most this far past a frame (in frames) counts as on the frame.
+ON_FRAME = 1e-9
+#: Work matrices :func:`place_row` needs beyond one per joint (its scratch is (J + this, 3, 3)).
+WORK_MATRICES = 16
+#: A swing foot is at least this fraction of its clip clearance over the ground under it.
+MIN_CLEARANCE_FRACTION = 0.5
 
 
 # ------------------------------------------------------------------ small pieces
@@ -80,6 +62,14 @@ def ground_height(ramps, x, z):
         if s >= 0.0:
             h = ramps[r, 2] + ramps[r, 5] * s
     return h
+
+
+@njit(cache=True)
+def ground_heights(ramps, xz, out):
+    """:func:`ground_height` of many points: ``xz`` (n, 2) horizontal points (m),
+    ``out`` (n,) their heights (m)."""
+    for k in range(xz.shape[0]):
+        out[k] = ground_height(ramps, xz[k, 0], xz[k, 1])
 
 
 @njit(cache=True)
@@ -120,12 +110,20 @@ def sample_row(roots, rots, i0, i1, a, root_out, q_out):
 
 
 @njit(cache=True)
+def sample_rows(roots, rots, i0, i1, a, root_out, q_out):
+    """:func:`sample_row` for ``n`` samples: frames ``i0``, ``i1`` (n,) int, fractions
+    ``a`` (n,); ``root_out`` (n, 3), ``q_out`` (n, J, 4) output."""
+    for k in range(i0.shape[0]):
+        sample_row(roots, rots, i0[k], i1[k], a[k], root_out[k], q_out[k])
+
+
+@njit(cache=True)
 def _in_contact(on_off, count, leg, t):
     x = t % 1.0
     for k in range(count[leg]):
         on = on_off[leg, k, 0]
         off = on_off[leg, k, 1]
-        if (x - on) % 1.0 <= (off - on) + 1e-9:
+        if (x - on) % 1.0 <= (off - on) + CONTACT_SLACK:
             return True
     return False
 
@@ -140,7 +138,7 @@ def stance_row(on_off, count, frames, phase, out):
     """
     f = phase * frames
     k = math.floor(f)
-    between = f - k > 1e-9
+    between = f - k > ON_FRAME
     for leg in range(4):
         st = _in_contact(on_off, count, leg, phase)
         if between and st:
@@ -150,8 +148,17 @@ def stance_row(on_off, count, frames, phase, out):
 
 
 @njit(cache=True)
+def contact_rows(on_off, count, t, out):
+    """Whether each leg is in one of its contacts at generic times ``t`` (T, 4) (cycles):
+    ``out`` (T, 4) bool. ``on_off`` (4, M, 2) and ``count`` (4,) as in :func:`stance_row`."""
+    for r in range(t.shape[0]):
+        for leg in range(4):
+            out[r, leg] = _in_contact(on_off, count, leg, t[r, leg])
+
+
+@njit(cache=True)
 def place_feet_rows(parents, offsets, L, roots, legs, targets, q_out):
-    """Legs of T poses put on their targets (the compiled :func:`~quadsim.horse.legs.place_feet`).
+    """Legs of T poses put on their targets (:func:`~quadsim.horse.legs.place_feet`).
 
     Parameters
     ----------
@@ -184,100 +191,178 @@ def place_feet_rows(parents, offsets, L, roots, legs, targets, q_out):
             quaternion_from_matrix(L[t, j], q_out[t, j])
 
 
-# ------------------------------------------------------------------ the placement
-@njit(cache=True)
-def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lead,
-              position, scal, body, feet_state, ramps, ints, parents, offsets,
-              out_L, out_q, out_P, out_root, out_contacts, out_ground, scratch):
-    """Place one clip-local pose in the world (the compiled
-    :meth:`~quadsim.horse.controller.HorseDataController._emit`).
+def pack_contacts(stance_cycles) -> tuple[np.ndarray, np.ndarray]:
+    """Each foot's contacts (list of 4 arrays (n_i, 2), cycles) packed for
+    :func:`stance_row` and :func:`contact_rows`: ``on_off`` (4, M, 2), ``count`` (4,) int64."""
+    count = np.array([len(x) for x in stance_cycles], dtype=np.int64)
+    on_off = np.zeros((4, max(1, int(count.max())), 2))
+    for j, x in enumerate(stance_cycles):
+        on_off[j, :len(x)] = x
+    return on_off, count
+
+
+class FixedTypeCall:
+    """A compiled kernel called again and again with arguments of the same types, without
+    numba's per-call type dispatch.
+
+    numba types every argument on every call; for :func:`place_row`'s nested bundles
+    (about fifty arrays and scalars) that costs as much as the kernel's own work. The
+    first call goes through the dispatcher (compiling or loading the cached machine
+    code); later calls go straight to the compiled entry point of that signature.
+    The caller must pass arguments of the first call's types (dtype, dimensions,
+    layout) every time -- the controller builds them that way -- since the entry
+    point does not check them.
 
     Parameters
     ----------
-    local, local_prev : ndarray, shape (3,)
-        The clip's root this frame and last frame (m, clip frame, travel unwrapped).
-    q : ndarray, shape (J, 4)
-        The clip's local rotations.
-    clip_contacts : ndarray of bool, shape (4,)
-        Feet the clip holds on the ground.
-    first : bool
-        The first frame (the horse is put at the origin, leads and pitch set at once).
-    dt : float
-        Time since the last frame (s), 0 on the first.
-    yaw, yaw0 : float
-        The heading this frame and last frame (rad).
-    yaw_lead : float
-        How far the head should lead the root in yaw (rad).
-    position : ndarray, shape (3,)
-        World position of the root on the ground plane ``(x, 0, z)`` (updated).
-    scal : ndarray, shape (N_SCALARS,)
-        Pitch and sag (updated), then constants (see :data:`SCALARS`).
-    body, feet_state, ramps, ints : ndarray
-        See the module notes (``body`` and ``feet_state`` updated).
-    parents : ndarray of int, shape (J,)
-    offsets : ndarray, shape (J, 3)
-    out_L : ndarray, shape (J, 3, 3)
-        Output: local rotations.
-    out_q : ndarray, shape (J, 4)
-        Output: local rotations as quaternions.
-    out_P : ndarray, shape (J, 3)
-        Output: world joint positions (m).
-    out_root : ndarray, shape (3,)
-        Output: world root position (m).
-    out_contacts : ndarray of bool, shape (4,)
-        Output: the planted feet.
-    out_ground : ndarray, shape (4,)
-        Output: ground height under each foot (m).
-    scratch : ndarray, shape (J + 16, 3, 3)
-        Work space.
+    kernel : numba dispatcher
     """
-    J = parents.shape[0]
-    n_chain = ints[0]
-    chain = ints[1:1 + n_chain]
-    feet = ints[1 + n_chain:5 + n_chain]
-    tops = ints[5 + n_chain:9 + n_chain]
-    mids = ints[9 + n_chain:13 + n_chain]
-    G = scratch[:J]
-    M = scratch[J:J + 16]
-    c = scal[S_CENTRE]
-    sy, cy = math.sin(yaw), math.cos(yaw)
-    # ---- travel: the heading change turns the body about its middle, then the clip's travel
-    if first:
+
+    def __init__(self, kernel):
+        self.kernel = kernel
+        self._entry = None
+
+    def __deepcopy__(self, memo):
+        return self             # holds no per-call state: copies of a controller share it
+
+    def __call__(self, *args):
+        if self._entry is not None:
+            return self._entry(*args)
+        result = self.kernel(*args)
+        sig = tuple(self.kernel.typeof_pyval(a) for a in args)
+        overload = getattr(self.kernel, "overloads", {}).get(sig)
+        self._entry = getattr(overload, "entry_point", None)
+        return result
+
+
+# ------------------------------------------------------------------ the placement
+@njit(cache=True)
+def place_row(frame, rig, tuning, state, ramps, out):
+    """Place one clip-local pose in the world (the data-driven horse's frame).
+
+    Parameters
+    ----------
+    frame : PlaceFrame
+        The clip's pose, its contacts and the heading.
+    rig : PlaceRig
+    tuning : PlaceTuning
+    state : PlaceState
+        Updated.
+    ramps : ndarray, shape (R, 6)
+        The ground's ramp table (:attr:`~quadsim.horse.slope.Ground.table`).
+    out : PlacedPose
+        Overwritten with the placed pose.
+    """
+    J = rig.parents.shape[0]
+    G = out.scratch[:J]
+    M = out.scratch[J:]
+    _travel(frame, rig, state)
+    th, ahead = _pitch_to_ground(frame, rig, tuning, state, ramps)
+    _lead_step(frame, rig, tuning, state.lead, th, ahead)
+    L = out.local_rotations
+    _clip_pose(frame, rig, state.lead, th, L, M)
+    # ---- the root over the ground, forward kinematics
+    sy, cy = math.sin(frame.yaw), math.cos(frame.yaw)
+    h = frame.local[1]
+    root = out.root
+    root[0] = state.position[0]
+    root[2] = state.position[2]
+    root[1] = _body_height(ramps, root[0], root[2], sy, cy, rig.centre, th, h)
+    P = out.positions
+    fk_row(rig.parents, rig.offsets, L, root, G, P)
+    F = np.empty((4, 3))
+    clearance = np.empty(4)
+    contacts = out.contacts
+    R = M[0]
+    feet, band, clip_contacts = rig.feet, tuning.ground_band, frame.contacts
+    for i in range(4):
+        f = feet[i]
+        F[i, 0], F[i, 1], F[i, 2] = P[f, 0], P[f, 1], P[f, 2]
+        # the feet's height above the clip's ground, in the body's frame
+        clearance[i] = (F[i, 0] - root[0]) * R[0, 1] + (F[i, 1] - root[1]) * R[1, 1] \
+            + (F[i, 2] - root[2]) * R[2, 1] + h
+        contacts[i] = clip_contacts[i] or clearance[i] <= band
+    shift = _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contacts, th)
+    tgt = np.empty((4, 3))
+    _foot_targets(frame, tuning, state.feet, ramps, F, clearance, contacts, tgt)
+    A = np.empty((4, 3))
+    B = np.empty((4, 3))
+    sag = _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B)
+    root[1] -= sag
+    _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M)
+    rotations, ground = out.rotations, out.ground
+    for j in range(J):
+        quaternion_from_matrix(L[j], rotations[j])
+    fk_row(rig.parents, rig.offsets, L, root, G, P)
+    for i in range(4):
+        f = feet[i]
+        ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
+
+
+@njit(cache=True, inline="always")
+def _travel(frame, rig, state):
+    """The heading change turns the body about its middle, then the clip's travel goes
+    along the heading (``state.position`` updated; at the origin on the first frame)."""
+    position = state.position
+    if frame.first:
         position[0] = 0.0
         position[1] = 0.0
         position[2] = 0.0
-    else:
-        dx = local[0] - local_prev[0]
-        dz = local[2] - local_prev[2]
-        cp = math.cos(scal[S_PITCH])
-        position[0] += (math.sin(yaw0) - sy) * c + (cy * dx + sy * dz) * cp
-        position[2] += (math.cos(yaw0) - cy) * c + (-sy * dx + cy * dz) * cp
-    # ---- pitch towards the ground's slope between the hips and the shoulders
-    hind, fore, look = scal[S_HIND], scal[S_FORE], scal[S_LOOK]
-    px, pz = position[0], position[2]
+        return
+    sy, cy = math.sin(frame.yaw), math.cos(frame.yaw)
+    c = rig.centre
+    dx = frame.local[0] - frame.local_prev[0]
+    dz = frame.local[2] - frame.local_prev[2]
+    cp = math.cos(state.pitch[0])
+    position[0] += (math.sin(frame.yaw_prev) - sy) * c + (cy * dx + sy * dz) * cp
+    position[2] += (math.cos(frame.yaw_prev) - cy) * c + (-sy * dx + cy * dz) * cp
+
+
+@njit(cache=True, inline="always")
+def _pitch_to_ground(frame, rig, tuning, state, ramps):
+    """Pitch the body towards the ground's slope between the hips and the shoulders.
+
+    Returns the new pitch and the slope (rad) of the ground ahead of the shoulders.
+    """
+    sy, cy = math.sin(frame.yaw), math.cos(frame.yaw)
+    hind, fore, look = rig.hind, rig.fore, tuning.look_distance
+    px, pz = state.position[0], state.position[2]
     gh = ground_height(ramps, px + hind * sy, pz + hind * cy)
     gf = ground_height(ramps, px + fore * sy, pz + fore * cy)
     ga = ground_height(ramps, px + (fore + look) * sy, pz + (fore + look) * cy)
     target = math.atan2(gf - gh, fore - hind)
-    if first:
-        scal[S_PITCH] = target
+    if frame.first:
+        state.pitch[0] = target
     else:
-        scal[S_PITCH] += (target - scal[S_PITCH]) * (1.0 - math.exp(-dt / scal[S_PITCH_TAU]))
-    th = scal[S_PITCH]
-    ahead = math.atan2(ga - gf, look)
-    # ---- the body lead: each joint towards its share of the wanted leads
-    my, mp = scal[S_MAX_YAW], scal[S_MAX_PITCH]
-    yl = min(max(yaw_lead, -my), my)
+        state.pitch[0] += (target - state.pitch[0]) * (1.0 - math.exp(-frame.dt / tuning.pitch_tau))
+    th = state.pitch[0]
+    return th, math.atan2(ga - gf, look)
+
+
+@njit(cache=True, inline="always")
+def _lead_step(frame, rig, tuning, lead, th, ahead):
+    """Each chain joint's leads towards its share of the wanted yaw and pitch leads."""
+    my, mp = tuning.max_yaw_lead, tuning.max_pitch_lead
+    yl = min(max(frame.yaw_lead, -my), my)
     pl = min(max(ahead - th, -mp), mp)
-    for k in range(n_chain):
-        a = 1.0 - math.exp(-dt / body[k, 3])
-        body[k, 0] += a * (body[k, 2] * yl - body[k, 0])
-        body[k, 1] += a * (body[k, 2] * pl - body[k, 1])
+    dt, first = frame.dt, frame.first
+    tau, share, yaw, pitch = rig.tau, rig.share, lead.yaw, lead.pitch
+    for k in range(rig.chain.shape[0]):
+        a = 1.0 - math.exp(-dt / tau[k])
+        yaw[k] += a * (share[k] * yl - yaw[k])
+        pitch[k] += a * (share[k] * pl - pitch[k])
         if first:
-            body[k, 0] = body[k, 2] * yl
-    # ---- the clip's rotations, the root turned to the heading and pitched
-    for j in range(J):
-        matrix_from_quaternion(q[j], out_L[j])
+            yaw[k] = share[k] * yl
+
+
+@njit(cache=True, inline="always")
+def _clip_pose(frame, rig, lead, th, L, M):
+    """The clip's rotations into ``L`` (J, 3, 3), the root turned to the heading and
+    pitched by ``th`` (that rotation left in ``M[0]``), the body lead into the chain."""
+    q = frame.rotations
+    for j in range(q.shape[0]):
+        matrix_from_quaternion(q[j], L[j])
+    sy, cy = math.sin(frame.yaw), math.cos(frame.yaw)
     sth, cth = math.sin(th), math.cos(th)
     R = M[0]                                   # R_y(yaw) @ R_x(-th)
     R[0, 0] = cy
@@ -289,54 +374,42 @@ def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lea
     R[2, 0] = -sy
     R[2, 1] = -cy * sth
     R[2, 2] = cy * cth
-    mul_into(R, out_L[0], M[1])
-    out_L[0, :, :] = M[1]
-    # ---- the lead into the pose: chain joint k's world rotation becomes A_k W_k,
-    #      A_k = R_y(yaw_k) (Y_h R_x(-pitch_k) Y_h^T); L_k' = Wp^T A_{k-1}^T A_k Wp L_k
+    mul_into(R, L[0], M[1])
+    L[0, :, :] = M[1]
+    # the lead into the pose: chain joint k's world rotation becomes A_k W_k,
+    # A_k = R_y(yaw_k) (Y_h R_x(-pitch_k) Y_h^T); L_k' = Wp^T A_{k-1}^T A_k Wp L_k
+    chain, lead_yaw, lead_pitch = rig.chain, lead.yaw, lead.pitch
     Wp, Wn, Ap, An, T1, T2 = M[2], M[3], M[4], M[5], M[6], M[7]
-    Wp[:, :] = out_L[chain[0]]
-    _lead_matrix(body[0, 0], body[0, 1], sy, cy, Ap)
-    for k in range(1, n_chain):
+    Wp[:, :] = L[chain[0]]
+    _lead_matrix(lead_yaw[0], lead_pitch[0], sy, cy, Ap)
+    for k in range(1, chain.shape[0]):
         j = chain[k]
-        mul_into(Wp, out_L[j], Wn)                 # the joint's world rotation before the lead
-        _lead_matrix(body[k, 0], body[k, 1], sy, cy, An)
-        mul_tn_into(Ap, An, T1)                    # A_{k-1}^T A_k
+        mul_into(Wp, L[j], Wn)                 # the joint's world rotation before the lead
+        _lead_matrix(lead_yaw[k], lead_pitch[k], sy, cy, An)
+        mul_tn_into(Ap, An, T1)                # A_{k-1}^T A_k
         mul_into(T1, Wp, T2)
-        mul_tn_into(Wp, T2, T1)                    # Wp^T A_{k-1}^T A_k Wp
-        mul_into(T1, out_L[j], T2)
-        out_L[j, :, :] = T2
+        mul_tn_into(Wp, T2, T1)                # Wp^T A_{k-1}^T A_k Wp
+        mul_into(T1, L[j], T2)
+        L[j, :, :] = T2
         Wp[:, :] = Wn
         Ap[:, :] = An
-    # ---- the root over the ground, forward kinematics
-    h = local[1]
-    root = out_root
-    root[0] = position[0]
-    root[2] = position[2]
-    root[1] = _body_height(ramps, root[0], root[2], sy, cy, c, th, h)
-    fk_row(parents, offsets, out_L, root, G, out_P)
-    fx = np.empty(4)
-    fy = np.empty(4)
-    fz = np.empty(4)
-    clearance = np.empty(4)
-    contacts = np.empty(4, dtype=np.bool_)
-    gb = scal[S_GROUND_BAND]
-    for i in range(4):
-        f = feet[i]
-        fx[i], fy[i], fz[i] = out_P[f, 0], out_P[f, 1], out_P[f, 2]
-        # the feet's height above the clip's ground, in the body's frame
-        clearance[i] = (fx[i] - root[0]) * R[0, 1] + (fy[i] - root[1]) * R[1, 1] \
-            + (fz[i] - root[2]) * R[2, 1] + h
-        contacts[i] = clip_contacts[i] or clearance[i] <= gb
-    # ---- the root follows the planted feet the clip holds down (equation 11)
-    started = feet_state[0, F_SPARE] > 0.5
+
+
+@njit(cache=True, inline="always")
+def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contacts, th):
+    """Move the root by the mean offset of the planted feet the clip holds down
+    (equation 11), at most ``shift_speed``; ``root``, the feet ``F`` (4, 3) and
+    ``state.position`` move with it. Returns the shift ``(x, y, z)`` (m)."""
+    feet = state.feet
     sx = 0.0
     sz = 0.0
     n_stay = 0
-    if started:
+    if not frame.first:
+        planted, plant, band = feet.planted, feet.plant, tuning.root_band
         for i in range(4):
-            if feet_state[i, F_PLANTED] > 0.5 and contacts[i] and clearance[i] <= scal[S_ROOT_BAND]:
-                sx += feet_state[i, F_PLANT] - fx[i]
-                sz += feet_state[i, F_PLANT + 2] - fz[i]
+            if planted[i] and contacts[i] and clearance[i] <= band:
+                sx += plant[i, 0] - F[i, 0]
+                sz += plant[i, 2] - F[i, 2]
                 n_stay += 1
     shx = 0.0
     shy = 0.0
@@ -345,100 +418,110 @@ def place_row(local, local_prev, q, clip_contacts, first, dt, yaw, yaw0, yaw_lea
         sx /= n_stay
         sz /= n_stay
         n = math.hypot(sx, sz)
-        lim = scal[S_SHIFT_SPEED] * dt
+        lim = tuning.shift_speed * frame.dt
         if n > lim:
             sx *= lim / n
             sz *= lim / n
         if sx != 0.0 or sz != 0.0:
-            y1 = _body_height(ramps, root[0] + sx, root[2] + sz, sy, cy, c, th, h)
+            sy, cy = math.sin(frame.yaw), math.cos(frame.yaw)
+            y1 = _body_height(ramps, root[0] + sx, root[2] + sz, sy, cy, rig.centre, th,
+                              frame.local[1])
             shx, shy, shz = sx, y1 - root[1], sz
             root[0] += shx
             root[1] = y1
             root[2] += shz
             for i in range(4):
-                fx[i] += shx
-                fy[i] += shy
-                fz[i] += shz
-            position[0] = root[0]
-            position[2] = root[2]
-    # ---- foot targets (the FootPlanter's rules)
-    if not started:
-        feet_state[0, F_SPARE] = 1.0
+                F[i, 0] += shx
+                F[i, 1] += shy
+                F[i, 2] += shz
+            state.position[0] = root[0]
+            state.position[2] = root[2]
+    return shx, shy, shz
+
+
+@njit(cache=True, inline="always")
+def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
+    """Each foot's target ``tgt`` (4, 3) by the :class:`~quadsim.horse.turning.FootPlanter`'s
+    rules: a planted foot on its plant, a striking one planted on the ground, a lifted
+    one's correction fading, a swing foot over the ground (``feet`` updated)."""
+    planted_, plant, offset, hold, air, drop = (feet.planted, feet.plant, feet.offset, feet.hold,
+                                                feet.air, feet.drop)
+    if frame.first:
         for i in range(4):
-            feet_state[i, F_PLANTED] = 0.0
-    tgt = np.empty((4, 3))
-    fade_t, low, high = scal[S_SWING_FADE], scal[S_SWING_LOW], scal[S_SWING_HIGH]
+            planted_[i] = False
+    fade_t, low, high, dt = tuning.swing_fade, tuning.swing_low, tuning.swing_high, frame.dt
     for i in range(4):
-        st = feet_state[i]
-        planted = st[F_PLANTED] > 0.5
+        planted = planted_[i]
         if planted and not contacts[i]:        # lift-off: keep the last planted correction
-            st[F_OFFSET] = st[F_HOLD]
-            st[F_OFFSET + 1] = st[F_HOLD + 1]
-            st[F_AIR] = 0.0
+            offset[i, 0] = hold[i, 0]
+            offset[i, 1] = hold[i, 1]
+            air[i] = 0.0
         elif not contacts[i]:
-            st[F_AIR] += dt
-        fade = 1.0 - _smoothstep(st[F_AIR] / fade_t)
-        tx = fx[i] + st[F_OFFSET] * fade
-        tz = fz[i] + st[F_OFFSET + 1] * fade
+            air[i] += dt
+        fade = 1.0 - _smoothstep(air[i] / fade_t)
+        tx = F[i, 0] + offset[i, 0] * fade
+        tz = F[i, 2] + offset[i, 1] * fade
         clear = max(clearance[i], 0.0)
         g = ground_height(ramps, tx, tz)
         over = g + clear
         w = 1.0 - _smoothstep((clear - low) / (high - low))
-        ty = max(min(over, fy[i] + w * (over - fy[i])), over - 0.5 * clear)
+        ty = max(min(over, F[i, 1] + w * (over - F[i, 1])), over - MIN_CLEARANCE_FRACTION * clear)
         if contacts[i] and not planted:        # strike: the plant, on the ground
-            st[F_PLANT], st[F_PLANT + 1], st[F_PLANT + 2] = tx, g, tz
-            st[F_DROP] = ty - g
+            plant[i, 0], plant[i, 1], plant[i, 2] = tx, g, tz
+            drop[i] = ty - g
         else:
-            st[F_DROP] = 0.0
-        st[F_PLANTED] = 1.0 if contacts[i] else 0.0
-        st[F_CONTACT] = st[F_PLANTED]
+            drop[i] = 0.0
+        planted_[i] = contacts[i]
         if contacts[i]:
-            tx, ty, tz = st[F_PLANT], st[F_PLANT + 1], st[F_PLANT + 2]
-            st[F_HOLD] = tx - fx[i]
-            st[F_HOLD + 1] = tz - fz[i]
+            tx, ty, tz = plant[i, 0], plant[i, 1], plant[i, 2]
+            hold[i, 0] = tx - F[i, 0]
+            hold[i, 1] = tz - F[i, 2]
         else:
-            st[F_HOLD] = 0.0
-            st[F_HOLD + 1] = 0.0
+            hold[i, 0] = 0.0
+            hold[i, 1] = 0.0
         tgt[i, 0], tgt[i, 1], tgt[i, 2] = tx, ty, tz
-        out_contacts[i] = contacts[i]
-    # ---- lower the body when a planted foot is beyond its leg's reach
-    A = np.empty((4, 3))
-    B = np.empty((4, 3))
+
+
+@njit(cache=True, inline="always")
+def _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B):
+    """Lower the body when a planted foot is beyond its leg's reach; returns the sag (m)
+    (``state.sag`` updated). ``A``, ``B`` (4, 3): output, each pair's top and middle
+    joints moved by ``shift``."""
     need = -np.inf
+    tops, mids = rig.tops, rig.mids
     for i in range(4):
         for r in range(3):
-            s_r = shx if r == 0 else (shy if r == 1 else shz)
-            A[i, r] = out_P[tops[i], r] + s_r
-            B[i, r] = out_P[mids[i], r] + s_r
+            A[i, r] = P[tops[i], r] + shift[r]
+            B[i, r] = P[mids[i], r] + shift[r]
         ab = math.sqrt((A[i, 0] - B[i, 0]) ** 2 + (A[i, 1] - B[i, 1]) ** 2
                        + (A[i, 2] - B[i, 2]) ** 2)
-        fb = math.sqrt((fx[i] - B[i, 0]) ** 2 + (fy[i] - B[i, 1]) ** 2 + (fz[i] - B[i, 2]) ** 2)
-        reach = (ab + fb) * scal[S_REACH]
+        fb = math.sqrt((F[i, 0] - B[i, 0]) ** 2 + (F[i, 1] - B[i, 1]) ** 2
+                       + (F[i, 2] - B[i, 2]) ** 2)
+        reach = (ab + fb) * tuning.reach
         vx, vy, vz = tgt[i, 0] - A[i, 0], tgt[i, 1] - A[i, 1], tgt[i, 2] - A[i, 2]
         val = 0.0
         if contacts[i] and math.sqrt(vx * vx + vy * vy + vz * vz) > reach:
             val = -math.sqrt(max(reach * reach - (vx * vx + vz * vz), 0.0)) - vy
         need = max(need, val)
-    scal[S_SAG] = max(need, scal[S_SAG] * math.exp(-dt / scal[S_SAG_TAU]))
-    sag = scal[S_SAG]
-    root[1] -= sag
-    # ---- the legs onto their targets (two-bone IK), then the final pose
+    state.sag[0] = max(need, state.sag[0] * math.exp(-frame.dt / tuning.sag_tau))
+    return state.sag[0]
+
+
+@njit(cache=True, inline="always")
+def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M):
+    """The four legs' two-bone IK onto ``tgt`` (4, 3), the body lowered by ``sag``
+    (``L`` updated)."""
     Fp = np.empty(3)
+    tops, mids, parents = rig.tops, rig.mids, rig.parents
     for i in range(4):
         A[i, 1] -= sag
         B[i, 1] -= sag
-        Fp[0], Fp[1], Fp[2] = fx[i], fy[i] - sag, fz[i]
+        Fp[0], Fp[1], Fp[2] = F[i, 0], F[i, 1] - sag, F[i, 2]
         top, mid = tops[i], mids[i]
         two_bone_row(A[i], B[i], Fp, G[parents[top]], G[top], G[mid], tgt[i],
                      M[8], M[9], M[10:14])
-        out_L[top, :, :] = M[8]
-        out_L[mid, :, :] = M[9]
-    for j in range(J):
-        quaternion_from_matrix(out_L[j], out_q[j])
-    fk_row(parents, offsets, out_L, root, G, out_P)
-    for i in range(4):
-        f = feet[i]
-        out_ground[i] = ground_height(ramps, out_P[f, 0], out_P[f, 2])
+        L[top, :, :] = M[8]
+        L[mid, :, :] = M[9]
 
 
 @njit(cache=True)
@@ -478,5 +561,7 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["FEET_COLUMNS", "N_SCALARS", "SCALARS", "fk_row", "ground_height", "place_feet_rows",
-           "place_row", "sample_row", "slerp_into", "stance_row", "two_bone_row"]
+__all__ = ["CONTACT_SLACK", "FixedTypeCall", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
+           "contact_rows",
+           "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
+           "sample_row", "sample_rows", "slerp_into", "stance_row"]

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..skeleton.motion import Motion
 from .database import Clip, cycle_stance
+from .place_kernel import contact_rows, pack_contacts
 
 STANCE, STRIKING, FLIGHT = 0, 1, 2
 
@@ -49,13 +50,16 @@ def clip_stance_cycles(clip: Clip) -> list[np.ndarray]:
 
 
 def in_stance(stance_cycles: list[np.ndarray], t: np.ndarray) -> np.ndarray:
-    """Whether each leg is on the ground at generic times ``t`` (T, 4) -> (T, 4) bool."""
-    t = np.asarray(t, dtype=float)
-    out = np.zeros(t.shape, dtype=bool)
-    for j, s in enumerate(stance_cycles):
-        x = t[:, j] % 1.0
-        for on, off in s:
-            out[:, j] |= ((x - on) % 1.0) <= (off - on) + 1e-9
+    """Whether each leg is on the ground at generic times ``t`` (T, 4) -> (T, 4) bool.
+
+    A leg is down while ``t`` (cycles, looped) lies in one of its contacts
+    ``stance_cycles[leg]`` (n, 2) ``[on, off]`` in cycles (compiled:
+    :func:`~quadsim.horse.place_kernel.contact_rows`, the controller's contact test).
+    """
+    t = np.ascontiguousarray(t, dtype=float)
+    on_off, count = pack_contacts(stance_cycles)
+    out = np.empty(t.shape, dtype=bool)
+    contact_rows(on_off, count, t.reshape(-1, 4), out.reshape(-1, 4))
     return out
 
 

@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
+from .place_kernel import ground_heights
 
 #: Steepest slope allowed (rad): the legs of a pitched horse reach about 20 degrees.
 MAX_SLOPE = math.radians(20.0)
@@ -67,18 +68,14 @@ class Ground:
         self.table = np.vstack([self.table, [o[0], o[1], h, u[0], u[1], math.tan(slope)]])
 
     def height(self, xz) -> np.ndarray:
-        """Ground height (m) at horizontal points ``xz`` of shape (..., 2) -> (...)."""
+        """Ground height (m) at horizontal points ``xz`` of shape (..., 2) -> (...): the
+        newest ramp whose half-plane holds a point, else 0 (compiled:
+        :func:`~quadsim.horse.place_kernel.ground_height`, as the placement reads it)."""
         p = np.asarray(xz, dtype=float)
-        out = np.zeros(p.shape[:-1])
-        for o, h, u, a in self.ramps:
-            s = (p - o) @ u
-            out = np.where(s >= 0.0, h + math.tan(a) * s, out)
-        return out
-
-    def height_at(self, points) -> np.ndarray:
-        """Ground height under 3-D points (..., 3) [x, y, z] -> (...)."""
-        p = np.asarray(points, dtype=float)
-        return self.height(p[..., [0, 2]])
+        flat = np.ascontiguousarray(p.reshape(-1, 2))
+        out = np.empty(len(flat))
+        ground_heights(self.table, flat, out)
+        return out.reshape(p.shape[:-1])
 
 
 __all__ = ["Ground", "MAX_SLOPE"]

@@ -46,8 +46,8 @@ foot may land a frame early).
 
 :func:`synchronous_transition` is the baseline: every leg at the reference
 leg's times, the whole pose slerped from M1 to M2, no stance alignment; its
-feet are held by the same IK. :func:`transition_quality` measures a
-transition from its joint positions.
+feet are held by the same IK. :func:`quadsim.analysis.transitions.transition_quality`
+measures a transition from its joint positions.
 """
 
 from __future__ import annotations
@@ -55,16 +55,15 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics.rotations import quaternion_slerp
+from ..skeleton.contacts import foot_contacts
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
-from .database import Clip
+from .database import Clip, sample_frames
 
 REFERENCE = 2  # LH
 TRANSITION_CYCLES = 2.5
 #: Frames over which a swing joins its held contact (see :func:`~quadsim.horse.legs.stance_targets`).
 PIN_RAMP = 6
-#: Height (m) under which :func:`transition_quality`'s ``skim`` counts a foot as down.
-SKIM_HEIGHT = 0.003
 
 
 def blend_frames(L1: int, L2: int) -> int:
@@ -73,17 +72,15 @@ def blend_frames(L1: int, L2: int) -> int:
 
 
 def sample_cycle(clip: Clip, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Local rotations (n, J, 4) and root heights (n,) at generic times ``t`` (cycles)."""
+    """Local rotations (n, J, 4) and root heights (n,) at generic times ``t`` (cycles),
+    the clip looped (its last frame blends into its first)."""
     m = clip.motion
     L = clip.frames
     f = (np.asarray(t, dtype=float) % 1.0) * L
-    i0 = np.floor(f).astype(int) % L
+    i0 = np.floor(f).astype(np.int64) % L
     i1 = (i0 + 1) % L
-    a = f - np.floor(f)
-    J = m.skeleton.n_joints
-    q = quaternion_slerp(m.rotations[i0], m.rotations[i1], np.broadcast_to(a[:, None], (len(f), J)))
-    h = m.root_positions[i0, 1] * (1 - a) + m.root_positions[i1, 1] * a
-    return q, h
+    root, q = sample_frames(m.root_positions, m.rotations, i0, i1, f - np.floor(f))
+    return q, root[:, 1]
 
 
 def _leg_joint_sets(character: Character) -> tuple[list[np.ndarray], np.ndarray]:
@@ -306,7 +303,7 @@ def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int =
     planned world path; :func:`~quadsim.horse.legs.place_feet` poses the legs.
     A blended leg may reach the ground a frame or two before its plan, so the
     contacts are then measured on the result
-    (:func:`~quadsim.analysis.metrics.foot_contacts`: low and slow, trimmed
+    (:func:`~quadsim.skeleton.contacts.foot_contacts`: low and slow, trimmed
     to the on-ground band), any measured contact frame outside the plan is
     added to it and the feet held again, up to ``rounds`` times.
 
@@ -328,7 +325,6 @@ def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int =
     stance : ndarray of bool, shape (T, 4)
         The contacts held.
     """
-    from ..analysis.metrics import foot_contacts
     from .legs import place_feet, reach_drop, stance_targets
 
     held = np.asarray(stance, dtype=bool)
@@ -354,68 +350,11 @@ def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int =
     return out, held
 
 
-def steady_acceleration(clip: Clip, cycles: int = 3) -> float:
-    """Largest joint angular acceleration (rad/s^2) of a clip played looped, steady."""
-    from ..analysis.metrics import angular_acceleration
-    from .database import looped
-
-    return float(angular_acceleration(looped(clip.motion, cycles, clip.speed)).max())
-
-
-def transition_quality(motion: Motion, clip1: Clip, clip2: Clip, *, tol: float = 0.06) -> dict:
-    """Measure a transition from its joint positions, not from its labels.
-
-    Parameters
-    ----------
-    motion : Motion
-        As made by :func:`transition_motion` (``extras["blend"]`` marks the blend).
-    clip1, clip2 : Clip
-        The old and new gait's clips.
-    tol : float
-        Phase tolerance (fraction of a stride) of the footfall pattern.
-
-    Returns
-    -------
-    dict
-        ``slide`` (m): the largest horizontal travel of a foot from where it
-        touched down, over every contact of the whole motion, the contacts
-        measured from the foot positions (:func:`~quadsim.analysis.metrics.foot_contacts`:
-        low and slow, trimmed to the on-ground band);
-        ``accel_ratio``: the largest joint angular acceleration of the
-        motion over the larger of the two clips' steady maxima
-        (:func:`steady_acceleration`);
-        ``strides``: left-hind strides from the blend's first frame until
-        the new gait's footfall pattern (phases of the clip2 touchdowns)
-        holds for good (:func:`~quadsim.analysis.metrics.strides_to_pattern`),
-        None if never; ``penetration`` (m): deepest foot below the ground;
-        ``skim`` (m): a stricter slide, the contacts taken as every frame a
-        foot is within :data:`SKIM_HEIGHT` of the ground whatever its speed
-        (it also counts a foot that grazes the ground as it lands or leaves).
-    """
-    from ..analysis.metrics import (
-        angular_acceleration,
-        foot_contacts,
-        foot_slide,
-        strides_to_pattern,
-    )
-
-    feet = motion.foot_positions()
-    c = foot_contacts(feet, motion.fps)
-    start = int(np.argmax(motion.extras["blend"] > 0)) / motion.fps
-    want = ((clip2.touchdown - clip2.touchdown[REFERENCE]) / clip2.frames) % 1.0
-    steady = max(steady_acceleration(clip1), steady_acceleration(clip2))
-    return {"slide": foot_slide(feet, c)[1],
-            "accel_ratio": float(angular_acceleration(motion).max()) / steady,
-            "strides": strides_to_pattern(c, motion.fps, want, feet=feet, start=start, tol=tol),
-            "penetration": float(max(0.0, -feet[..., 1].min())),
-            "skim": foot_slide(feet, feet[..., 1] <= SKIM_HEIGHT)[1]}
-
-
 def synchronous_transition(character, clip1, clip2, **kw) -> Motion:
     """The baseline: :func:`transition_motion` with every leg on the reference leg's times."""
     return transition_motion(character, clip1, clip2, synchronous=True, **kw)
 
 
-__all__ = ["REFERENCE", "blend_frames", "leg_stance", "leg_times", "sample_cycle",
-           "stance_aligned_times", "steady_acceleration", "synchronous_transition",
-           "transition_motion", "transition_quality"]
+__all__ = ["PIN_RAMP", "REFERENCE", "TRANSITION_CYCLES", "blend_frames", "leg_stance",
+           "leg_times", "sample_cycle", "stance_aligned_times", "synchronous_transition",
+           "transition_motion"]

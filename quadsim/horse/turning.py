@@ -19,7 +19,7 @@ turns with it.
 frame the root moves by the mean offset between the stance feet's recorded
 positions and where the pose would put them (the seed's equation 11, the
 "adjust the position of the root" step), and the remaining per-foot offsets are
-closed by the two-bone IK of :func:`quadsim.horse.legs.two_bone`. When a foot lifts off,
+closed by the two-bone IK (:func:`quadsim.kinematics.chains.two_bone_row`). When a foot lifts off,
 the correction it had on its last planted frame (its plant minus where the pose
 put it) is faded out over the first :data:`SWING_FADE` seconds of its swing, so
 the foot does not jump; swing feet keep the clip's height above the (possibly
@@ -44,6 +44,7 @@ import math
 import numpy as np
 
 from ..skeleton.character import Character
+from .bundles import FeetState, LeadState
 
 #: Time (s) over which a lifted foot's planted offset fades out.
 SWING_FADE = 0.2
@@ -77,48 +78,40 @@ class BodyLead:
 
     Attributes
     ----------
-    chain : ndarray of int, shape (n,)
+    chain : ndarray of int64, shape (n,)
         Joint indices, root (pelvis) first, head last.
-    state : ndarray, shape (n, 4)
-        Per joint: yaw lead, pitch lead (rad, global, relative to the root's
-        orientation), share (0 at the root, 1 at the head) and follow time
-        constant (s); :attr:`yaw`, :attr:`pitch`, :attr:`share` and
-        :attr:`tau` are its columns.
+    share : ndarray, shape (n,)
+        Fraction of the full lead each joint takes (0 at the root, 1 at the head).
+    tau : ndarray, shape (n,)
+        Follow time constant of each joint (s): the head is quickest.
+    state : LeadState
+        The leads (rad, global, relative to the root's orientation), moved by the
+        placement: :attr:`yaw` and :attr:`pitch` are its fields.
     """
 
     def __init__(self, character: Character):
-        self.chain = np.concatenate([np.asarray(character.spine, dtype=int),
-                                     np.asarray(character.neck, dtype=int),
-                                     [int(character.head)]])
+        self.chain = np.concatenate([np.asarray(character.spine, dtype=np.int64),
+                                     np.asarray(character.neck, dtype=np.int64),
+                                     [int(character.head)]]).astype(np.int64)
         n = len(self.chain)
         ns = len(character.spine)
-        self.state = np.zeros((n, 4))
         # the back takes a fifth of the lead (a horse's back bends little), neck and head the rest
         back = np.linspace(0.0, 0.2, ns)
         front = np.linspace(0.2, 1.0, n - ns + 1)[1:]
-        self.state[:, 2] = np.concatenate([back, front])
+        self.share = np.concatenate([back, front])
         # the head follows in 0.08 s, the joints towards the root more slowly (0.3 s)
-        self.state[:, 3] = np.linspace(0.3, 0.08, n)
+        self.tau = np.linspace(0.3, 0.08, n)
+        self.state = LeadState(np.zeros(n), np.zeros(n))
 
     @property
     def yaw(self) -> np.ndarray:
         """Yaw leads (n,) (rad)."""
-        return self.state[:, 0]
+        return self.state.yaw
 
     @property
     def pitch(self) -> np.ndarray:
         """Pitch leads (n,) (rad), nose up."""
-        return self.state[:, 1]
-
-    @property
-    def share(self) -> np.ndarray:
-        """Fraction (n,) of the full lead each joint takes."""
-        return self.state[:, 2]
-
-    @property
-    def tau(self) -> np.ndarray:
-        """Follow time constant (n,) of each joint (s): the head is quickest."""
-        return self.state[:, 3]
+        return self.state.pitch
 
 
 class FootPlanter:
@@ -135,53 +128,46 @@ class FootPlanter:
 
     Attributes
     ----------
-    state : ndarray, shape (4, 12)
-        Per leg (LF, RF, LH, RH): planted (0/1), plant x, y, z (m), offset x, z
-        (m), hold x, z (m), time in the air (s), drop (m), contact (0/1), and a
-        column whose first entry is 1 once the planter has started
-        (:mod:`quadsim.horse.place_kernel`). The properties below are views.
+    state : FeetState
+        Per leg (LF, RF, LH, RH): planted, plant, offset, hold, air and drop
+        (:class:`~quadsim.horse.bundles.FeetState`); the properties below are its fields.
     """
 
     def __init__(self) -> None:
-        self.state = np.zeros((4, 12))
-        self.state[:, 8] = np.inf
+        self.state = FeetState(np.zeros(4, dtype=np.bool_), np.zeros((4, 3)), np.zeros((4, 2)),
+                               np.zeros((4, 2)), np.full(4, np.inf), np.zeros(4))
 
     @property
     def planted(self) -> np.ndarray:
-        """Whether each foot is planted, (4,) bool."""
-        return self.state[:, 0] > 0.5
-
-    @property
-    def contacts(self) -> np.ndarray:
-        """The feet on the ground this frame, (4,) bool."""
-        return self.state[:, 10] > 0.5
+        """Whether each foot is planted (on the ground this frame), (4,) bool."""
+        return self.state.planted
 
     @property
     def plant(self) -> np.ndarray:
         """World position (4, 3) of each planted foot (m), on the ground."""
-        return self.state[:, 1:4]
+        return self.state.plant
 
     @property
     def offset(self) -> np.ndarray:
         """Horizontal offset [x, z] (4, 2) (m) of a lifted foot's target from its pose
         position: its :attr:`hold` at lift-off, faded out over :data:`SWING_FADE`."""
-        return self.state[:, 4:6]
+        return self.state.offset
 
     @property
     def hold(self) -> np.ndarray:
         """Horizontal correction [x, z] (4, 2) (m) of each planted foot this frame (its
         plant minus where the pose puts it), 0 for the others."""
-        return self.state[:, 6:8]
+        return self.state.hold
 
     @property
     def air(self) -> np.ndarray:
         """Time since lift-off (4,) (s); infinite before the first."""
-        return self.state[:, 8]
+        return self.state.air
 
     @property
     def drop(self) -> np.ndarray:
         """How far each striking foot was put down onto the ground this frame (4,) (m)."""
-        return self.state[:, 9]
+        return self.state.drop
 
 
 __all__ = ["BodyLead", "FootPlanter", "GROUND_BAND", "LOOK_AHEAD", "MAX_PITCH_LEAD",

@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
-__all__ = ["axis_angle_into", "fk_joint", "fk_row", "mul_into", "mul_tn_into", "two_bone_row"]
+__all__ = ["axis_angle_into", "fk_joint", "fk_row", "mul_into", "mul_tn_into", "two_bone_row",
+           "two_bone_rows"]
 
 
 @njit(cache=True)
@@ -92,6 +94,19 @@ def two_bone_row(A, B, F, W_parent, W_top, W_mid, target, L_top, L_mid, work):
     mul_into(Rm, W_mid, T)
     mul_into(Rs, T, work[0])                # the middle joint's new world rotation (Rm no longer used)
     mul_tn_into(Wt, work[0], L_mid)
+
+
+@njit(cache=True)
+def two_bone_rows(A, B, F, W_parent, W_top, W_mid, targets, L_top, L_mid):
+    """:func:`two_bone_row` for ``n`` legs or frames at once.
+
+    ``A``, ``B``, ``F``, ``targets`` (n, 3) world positions (m); ``W_*`` (n, 3, 3)
+    world rotations; ``L_top``, ``L_mid`` (n, 3, 3) output local rotations.
+    """
+    work = np.empty((4, 3, 3))
+    for k in range(A.shape[0]):
+        two_bone_row(A[k], B[k], F[k], W_parent[k], W_top[k], W_mid[k], targets[k],
+                     L_top[k], L_mid[k], work)
 
 
 @njit(cache=True)

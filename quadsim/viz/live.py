@@ -20,7 +20,6 @@ positions follow), the gait label, the heading and what a recording keeps.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Protocol, runtime_checkable
 
@@ -198,6 +197,11 @@ class ProceduralLive:
 class DataLive:
     """The data-driven horse controller behind the :class:`LiveController` interface.
 
+    A thin wrapper: :class:`~quadsim.horse.controller.HorseDataController`
+    implements the controller protocol itself (gait keys, speeds, the ground,
+    the first step at ``dt = 0``); this only turns its frames into
+    :class:`LiveFrame` s.
+
     Parameters
     ----------
     character : Character
@@ -206,78 +210,50 @@ class DataLive:
         Fixed step (s).
     database : ClipDatabase, optional
         Default: the character's shipped clips.
-
-    Notes
-    -----
-    A number key holds a clip gait at the geometric mean of its clips'
-    speeds; a held gait is asked for at most the speed its fastest clip is
-    expanded to (:data:`~quadsim.horse.controller.SPEED_REACH`), and the
-    fastest speed overall is the gallop's.
     """
 
     mode = "data"
 
     def __init__(self, character, *, dt: float, database=None):
         from quadsim.horse.controller import HorseDataController
+        from quadsim.io.clips import load_default_database
 
+        if database is None:
+            database = load_default_database(character)
         self.character = character
         self.controller = HorseDataController(character, database, dt=dt)
-        db = self.controller.db
-        self.gait_order = [g for g in db.gaits if g != "leap"][:9]
-        self.auto_gaits = list(self.controller.auto)
-        self.max_speed = max(self.gait_speed_cap(g) for g in self.gait_order)
-        self._label = "stand"
+        self.gait_order = self.controller.gait_order
+        self.auto_gaits = self.controller.auto_gaits
+        self.max_speed = self.controller.max_speed
 
     @property
     def ground(self):
-        """The controller's :class:`~quadsim.horse.slope.Ground` (None while flat)."""
-        g = self.controller.ground
-        return g if g.ramps else None
+        return self.controller.ground
 
     @property
     def speed(self) -> float:
-        return float(self.controller.speed)
+        return self.controller.speed
 
     @property
     def heading(self) -> float:
-        return float(self.controller.yaw)
+        return self.controller.heading
 
     @property
     def gait(self) -> str:
-        return self._label
-
-    def speed_range(self, gait: str) -> tuple[float, float]:
-        """Slowest and fastest speed (m/s) the gait's clips are played at."""
-        from quadsim.horse.controller import SPEED_REACH
-
-        clips = self.controller.db.by_gait(gait)
-        return clips[0].speed * SPEED_REACH[0], clips[-1].speed * SPEED_REACH[1]
+        return self.controller.gait
 
     def preferred_speed(self, gait: str) -> float:
-        """Geometric mean of the gait's clip speeds (m/s)."""
-        clips = self.controller.db.by_gait(gait)
-        return float(math.exp(np.mean([math.log(c.speed) for c in clips])))
+        return self.controller.preferred_speed(gait)
 
     def gait_speed_cap(self, gait: str) -> float:
-        """Fastest speed (m/s) the gait's clips are expanded to."""
-        return float(self.speed_range(gait)[1])
+        return self.controller.gait_speed_cap(gait)
 
     def step(self, command, dt: float) -> LiveFrame:
-        """One controller step (heading, pitch and the ground under the feet as extras).
-
-        The first step is the starting pose and does not advance; ``dt = 0``
-        is allowed for it only.
-        """
-        if dt <= 0 and self.controller.clip is None:
-            dt = self.controller.dt
-        out = self.controller.step(command, dt)
-        self._label = str(out["gait"])
-        extras = {"heading": np.asarray(out["heading"], dtype=float),
-                  "pitch": np.asarray(out["pitch"], dtype=float),
-                  "ground": np.asarray(out["ground"], dtype=float)}
-        return LiveFrame(self.character.skeleton, out["local_rotations"], out["root"],
-                         float(out["heading"]), self._label,
-                         np.asarray(out["contacts"], dtype=bool), extras)
+        """One controller step (heading, pitch and the ground under the feet as extras)."""
+        f = self.controller.step(command, dt)
+        extras = {"heading": np.asarray(f.heading, dtype=float), **f.extras}
+        return LiveFrame(self.character.skeleton, f.local_rotations, f.root, f.heading,
+                         f.gait, f.contacts, extras)
 
 
 def live_controller(character, mode: str = "procedural", *, dt: float, seed: int = 0,
@@ -324,7 +300,7 @@ def check_mode(character, mode: str) -> None:
                          f"{', '.join(map(repr, MODES))}")
     if mode != "data":
         return
-    from quadsim.horse.database import clip_folder
+    from quadsim.io.clips import clip_folder
 
     if clip_folder(character) is None:
         raise InputError(f"`--mode data`: character {character.id!r} has no clip database "
