@@ -1,7 +1,7 @@
 """Render a motion to a video file off screen (``.mp4`` or ``.gif``).
 
 :func:`render_video` poses the :class:`~quadsim.viz.body.BodyMesh` for every
-frame (forward kinematics once, for all frames), draws the
+frame (forward kinematics for :data:`FK_CHUNK` frames at a time), draws the
 :class:`~quadsim.viz.scene.Scene` off screen -- VTK renders through EGL or
 OSMesa on a machine without a display -- and streams the frames, one at a
 time, to the encoder (:mod:`quadsim.viz.video`), so memory does not grow
@@ -29,6 +29,7 @@ simulates it.
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import sys
@@ -44,6 +45,8 @@ __all__ = ["FORMATS", "render_frames", "render_video"]
 
 #: Video formats by extension.
 FORMATS = (".mp4", ".gif")
+#: Frames posed together (forward kinematics); memory does not grow with the length.
+FK_CHUNK = 128
 #: Frame rate of a video of a simulated config, by extension (the CLI's default).
 DEFAULT_FPS = {".mp4": 30.0, ".gif": 25.0}
 
@@ -160,17 +163,15 @@ def render_frames(motion, *, size=(640, 480), camera: str = "follow", character=
         raise ValueError(f"camera {camera!r}: choose one of {', '.join(CAMERAS)}")
     if character is None:
         character = _character_for(motion)
-    G = motion.world_rotations()
-    P = motion.world_positions()
     if character is not None and sorted(character.skeleton.names) == sorted(
             motion.skeleton.names):
         # the character's body, its joints picked out of the motion's order
         # (a BVH file lists them depth first)
         perm = motion.skeleton.indices(character.skeleton.names)
-        G, P = G[:, perm], P[:, perm]
         body = BodyMesh.from_character(character)
         scale = character.hip_height
     else:
+        perm = np.arange(motion.skeleton.n_joints)
         body = BodyMesh.from_skeleton(motion.skeleton)
         scale = body_scale(motion.skeleton)
     scene = Scene(body, scale, size=size, off_screen=True, camera=camera,
@@ -179,10 +180,19 @@ def render_frames(motion, *, size=(640, 480), camera: str = "follow", character=
         from quadsim.viz.terrain import motion_ground
 
         ground = motion_ground(motion, cell=scene.spacing / GROUND_SUB)
-        H = _headings(motion)
         dt = 1.0 / motion.fps
         for k in range(len(motion)):
-            scene.set_pose(G[k], P[k], H[k], ground=ground)
+            if k % FK_CHUNK == 0:   # forward kinematics a chunk at a time: memory stays flat
+                if k:
+                    # the encoders and pyvista leave reference cycles behind every frame;
+                    # collect them here so that they cannot pile up over a long video
+                    gc.collect()
+                part = motion[k:k + FK_CHUNK]
+                G = part.world_rotations()[:, perm]
+                P = part.world_positions()[:, perm]
+                H = _headings(part)
+            i = k % FK_CHUNK
+            scene.set_pose(G[i], P[i], H[i], ground=ground)
             scene.update_camera(dt if k else 0.0)
             yield scene.image()
             if progress is not None:
@@ -262,12 +272,15 @@ def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: st
     with atomic_output(path, suffix=ext, make_folder=True) as tmp:
         frames = render_frames(motion, size=(w, h), camera=camera,
                                anti_aliasing=anti_aliasing, progress=bar)
-        stream = open_stream(tmp, ext, (w, h), motion.fps, quality)
+        stream = None
         try:
             for img in frames:
+                if stream is None:  # after the first frame: the heavy imports are done
+                    stream = open_stream(tmp, ext, (w, h), motion.fps, quality)
                 stream.append(img)
         except BaseException:
-            stream.abort()
+            if stream is not None:
+                stream.abort()
             frames.close()
             raise
         stream.close()
