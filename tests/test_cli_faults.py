@@ -104,7 +104,7 @@ def _can_mount_tmpfs() -> bool:
     if shutil.which("unshare") is None:
         return False
     r = subprocess.run(["unshare", "-rm", "sh", "-c", "mount -t tmpfs -o size=64k tmpfs /mnt"],
-                       capture_output=True)
+                       check=False, capture_output=True)
     return r.returncode == 0
 
 
@@ -127,9 +127,9 @@ def test_render_onto_a_really_full_disk(clip, tmp_path, ext):
         print("RESULT", code, same, left)
     """)
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    r = subprocess.run(["unshare", "-rm", "sh", "-c",
-                        f"mount -t tmpfs -o size=96k tmpfs {disk} && exec {sys.executable} -c "
-                        '"$0"', script], capture_output=True, text=True, env=env, timeout=300)
+    shell = f'mount -t tmpfs -o size=96k tmpfs {disk} && exec {sys.executable} -c "$0"'
+    r = subprocess.run(["unshare", "-rm", "sh", "-c", shell, script], check=False,
+                       capture_output=True, text=True, env=env, timeout=300)
     line = [s for s in r.stdout.splitlines() if s.startswith("RESULT")]
     assert line, r.stdout + r.stderr
     assert line[0] == f"RESULT 2 True ['clip{ext}']", r.stderr
