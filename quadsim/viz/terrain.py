@@ -134,13 +134,39 @@ class TrackGround:
         self._tiles[key] = tile
         return tile
 
+    def _block(self, i0: int, i1: int, j0: int, j1: int) -> np.ndarray:
+        """Node values for ``i0 <= I < i1``, ``j0 <= J < j1``, assembled from tiles."""
+        out = np.empty((i1 - i0, j1 - j0))
+        for ti in range(i0 // _TILE, (i1 - 1) // _TILE + 1):
+            a, b = max(i0, ti * _TILE), min(i1, (ti + 1) * _TILE)
+            for tj in range(j0 // _TILE, (j1 - 1) // _TILE + 1):
+                c, d = max(j0, tj * _TILE), min(j1, (tj + 1) * _TILE)
+                tile = self._tile((ti, tj))
+                out[a - i0:b - i0, c - j0:d - j0] = tile[a - ti * _TILE:b - ti * _TILE,
+                                                         c - tj * _TILE:d - tj * _TILE]
+        return out
+
     def _nodes(self, I: np.ndarray, J: np.ndarray) -> np.ndarray:
-        ti, tj = np.floor_divide(I, _TILE), np.floor_divide(J, _TILE)
-        keys = np.stack([ti, tj], axis=-1).reshape(-1, 2)
-        uniq, inv = np.unique(keys, axis=0, return_inverse=True)
-        tiles = np.stack([self._tile((int(a), int(b))) for a, b in uniq])
-        return tiles[inv.reshape(-1), np.mod(I, _TILE).reshape(-1),
-                     np.mod(J, _TILE).reshape(-1)].reshape(I.shape)
+        """Node values at integer lattice coordinates ``I``, ``J`` (same shape)."""
+        if I.size == 0:
+            return np.zeros(I.shape)
+        i0, i1, j0, j1 = int(I.min()), int(I.max()) + 1, int(J.min()), int(J.max()) + 1
+        if (i1 - i0) * (j1 - j0) <= 4 * I.size + 4 * _TILE * _TILE:
+            # a compact set (the scene's window): one block covering it
+            return self._block(i0, i1, j0, j1)[I - i0, J - j0]
+        # scattered points: tile by tile
+        key = np.floor_divide(I, _TILE) * (1 << 32) + np.floor_divide(J, _TILE)
+        out = np.empty(I.shape)
+        flat_k, flat_i, flat_j = key.ravel(), I.ravel(), J.ravel()
+        res = out.reshape(-1)
+        order = np.argsort(flat_k, kind="stable")
+        ks = flat_k[order]
+        starts = np.flatnonzero(np.r_[True, ks[1:] != ks[:-1]])
+        for a, b in zip(starts, np.r_[starts[1:], len(ks)]):
+            sel = order[a:b]
+            ti, tj = int(flat_i[sel[0]] // _TILE), int(flat_j[sel[0]] // _TILE)
+            res[sel] = self._tile((ti, tj))[flat_i[sel] - ti * _TILE, flat_j[sel] - tj * _TILE]
+        return out
 
     def height(self, xz) -> np.ndarray:
         """Ground height (m) at horizontal points ``xz`` of shape (..., 2) -> (...)."""
@@ -152,11 +178,10 @@ class TrackGround:
         base = np.floor(u + 1e-6)
         f = np.clip(u - base, 0.0, 1.0)
         I, J = base[..., 0].astype(np.int64), base[..., 1].astype(np.int64)
-        h00, h10 = self._nodes(I, J), self._nodes(I + 1, J)
-        h01, h11 = self._nodes(I, J + 1), self._nodes(I + 1, J + 1)
+        corners = self._nodes(np.stack([I, I + 1, I, I + 1]), np.stack([J, J, J + 1, J + 1]))
         fx, fz = f[..., 0], f[..., 1]
-        return (h00 * (1 - fx) * (1 - fz) + h10 * fx * (1 - fz)
-                + h01 * (1 - fx) * fz + h11 * fx * fz)
+        return (corners[0] * (1 - fx) * (1 - fz) + corners[1] * fx * (1 - fz)
+                + corners[2] * (1 - fx) * fz + corners[3] * fx * fz)
 
 
 def motion_ground(motion, cell: float = 0.25) -> TrackGround | None:
