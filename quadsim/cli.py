@@ -179,6 +179,7 @@ def cmd_validate(args) -> int:
 
 def cmd_metrics(args) -> int:
     from quadsim.analysis.metrics import format_report, motion_report
+    from quadsim.frames import LEGS
     from quadsim.io.bvh import read_bvh
 
     path = Path(args.file)
@@ -191,7 +192,13 @@ def cmd_metrics(args) -> int:
         motion = read_bvh(path, units=args.units)
     for w in caught:
         print(f"{PROG}: warning: {w.message}", file=sys.stderr)
-    motion = _with_feet(motion, path)
+    from quadsim.io.guess import with_feet
+
+    motion, by_shape = with_feet(motion, path)
+    if by_shape:
+        print(f"{PROG}: warning: {path}: feet taken from the skeleton's shape: "
+              + ", ".join(f"{leg} {name}" for leg, name in zip(LEGS, motion.foot_joints)),
+              file=sys.stderr)
     n, fps = len(motion), motion.fps
     if n < 3:
         raise InputError(f"{path}: the file has {n} frame{'' if n == 1 else 's'}; "
@@ -209,30 +216,6 @@ def cmd_metrics(args) -> int:
     else:
         print(format_report(report))
     return 0
-
-
-def _with_feet(motion, path: Path):
-    """The motion with its four foot joints named: by name, else from the skeleton's shape."""
-    if motion.foot_joints is not None:
-        return motion
-    from quadsim.io.guess import feet_from_structure
-
-    feet = feet_from_structure(motion.skeleton)
-    if feet is None:
-        ends = [n for j, n in enumerate(motion.skeleton.names)
-                if not motion.skeleton.children[j]]
-        raise InputError(
-            f"{path}: cannot tell which joints are the feet: expected the four legs' end "
-            "joints named with the prefixes LF_, RF_, LH_ and RH_ (left fore, right fore, left "
-            "hind, right hind, e.g. LF_hoof), or a rest pose whose four lowest end joints "
-            "stand left and right, fore and hind of the body; the file's end joints are "
-            f"{', '.join(ends) or 'none'}")
-    print(f"{PROG}: warning: {path}: feet taken from the skeleton's shape: "
-          f"{', '.join(f'{leg} {name}' for leg, name in zip(('LF', 'RF', 'LH', 'RH'), feet))}",
-          file=sys.stderr)
-    from dataclasses import replace
-
-    return replace(motion, foot_joints=tuple(feet))
 
 
 def _json_default(o):

@@ -14,11 +14,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from quadsim.errors import InputError
 from quadsim.frames import LEGS, X, Y, Z
 from quadsim.skeleton.skeleton import Skeleton
 
 __all__ = ["CM_ABOVE", "feet_from_structure", "guess_foot_joints", "guess_units",
-           "rest_hip_height"]
+           "rest_hip_height", "with_feet"]
 
 #: A rest pose taller than this at the hips (in the file's unit) is read as centimetres.
 CM_ABOVE = 3.0
@@ -127,3 +128,43 @@ def feet_from_structure(skeleton: Skeleton) -> tuple[str, ...] | None:
     if P[lf, Z] - P[lh, Z] <= 1e-9 or P[rf, Z] - P[rh, Z] <= 1e-9:
         return None
     return tuple(skeleton.names[j] for j in (lf, rf, lh, rh))
+
+
+def with_feet(motion, source="the motion"):
+    """The motion with its four foot joints named, found from the skeleton if need be.
+
+    Parameters
+    ----------
+    motion : Motion
+    source : str or path-like
+        Names the motion in the error message (its file).
+
+    Returns
+    -------
+    motion : Motion
+        ``motion`` itself when it names its feet, else a copy whose
+        ``foot_joints`` are :func:`feet_from_structure`'s.
+    by_shape : bool
+        True when the feet were found from the skeleton's shape.
+
+    Raises
+    ------
+    InputError
+        When the shape does not show four legs either; the message lists
+        what is expected and the skeleton's end joints.
+    """
+    if motion.foot_joints is not None:
+        return motion, False
+    skel = motion.skeleton
+    feet = feet_from_structure(skel)
+    if feet is None:
+        ends = [n for j, n in enumerate(skel.names) if not skel.children[j]]
+        raise InputError(
+            f"{source}: cannot tell which joints are the feet: expected the four legs' end "
+            "joints named with the prefixes LF_, RF_, LH_ and RH_ (left fore, right fore, left "
+            "hind, right hind, e.g. LF_hoof), or a rest pose whose four lowest end joints "
+            "stand left and right, fore and hind of the body; the file's end joints are "
+            f"{', '.join(ends) or 'none'}")
+    from dataclasses import replace
+
+    return replace(motion, foot_joints=tuple(feet)), True
