@@ -121,22 +121,9 @@ def _default_mode() -> int:
     return 0o666 & ~umask
 
 
-def _fsync_folder(folder: Path) -> None:
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
-
-
 @contextmanager
 def atomic_output(path: str | os.PathLike, *, suffix: str = "",
-                  make_folder: bool = False) -> Iterator[Path]:
+                  make_folder: bool = False, sync: bool = True) -> Iterator[Path]:
     """A temporary file to write ``path`` through; moved into place on success.
 
     Use it for writers that want a file name (a video encoder, a plotting
@@ -155,6 +142,10 @@ def atomic_output(path: str | os.PathLike, *, suffix: str = "",
     make_folder : bool
         Create the destination's folder if it is missing (else a missing
         folder is an error).
+    sync : bool
+        Flush the finished file to the disk before moving it (False when the
+        writer has done so itself), so that a late "disk full" still fails
+        here and not after the old file is gone.
 
     Yields
     ------
@@ -189,14 +180,14 @@ def atomic_output(path: str | os.PathLike, *, suffix: str = "",
             mode = stat.S_IMODE(target.stat().st_mode)
         except OSError:
             mode = _default_mode()
-        fd = os.open(tmp, os.O_RDWR)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        if sync:
+            fd = os.open(tmp, os.O_RDWR)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
         os.chmod(tmp, mode)
         os.replace(tmp, target)
-        _fsync_folder(target.parent)
     except BaseException as e:
         try:
             os.unlink(tmp)
@@ -237,7 +228,7 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO], None], *,
     InputError
         When the destination cannot be written (naming the path and the reason).
     """
-    with atomic_output(path) as tmp:
+    with atomic_output(path, sync=False) as tmp:
         try:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
         except FileNotFoundError:
@@ -247,6 +238,8 @@ def atomic_write(path: str | os.PathLike, write: Callable[[IO], None], *,
         kw = {} if binary else {"encoding": "utf-8", "newline": "\n"}
         with os.fdopen(fd, mode, **kw) as f:
             write(f)
+            f.flush()
+            os.fsync(f.fileno())
     return Path(path)
 
 
