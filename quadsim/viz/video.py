@@ -131,7 +131,7 @@ class Mp4Stream:
             raise ValueError(f"frame has shape {a.shape}, expected "
                              f"({self.size[1]}, {self.size[0]}, 3)")
         try:
-            self._proc.stdin.write(a.tobytes())
+            self._proc.stdin.write(a.data)
         except (BrokenPipeError, OSError):
             self._proc.wait()
             raise self._error("the video encoder stopped") from None
