@@ -59,7 +59,7 @@ def _motion_from(source, seconds: float | None, fps: float | None):
         path = Path(source)
         if path.suffix.lower() != ".bvh":
             raise ValueError(f"render_video takes a Motion or a .bvh file, got {str(path)!r}; "
-                             "simulate a config first (quadsim.simulate) and pass its motion")
+                             "simulate the config first and pass its motion")
         from quadsim.io.bvh import read_bvh
 
         source = read_bvh(path, units=None)
