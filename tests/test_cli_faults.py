@@ -326,6 +326,17 @@ def test_a_centimetre_file_renders_like_the_metre_file(trot, clip, tmp_path):
     assert np.mean(np.abs(a.astype(int) - b.astype(int))) < 1.0
 
 
+def test_render_of_a_centimetre_file_says_which_unit_it_read(trot, tmp_path, capsys):
+    cm = write_bvh(trot[:4], tmp_path / "cm.bvh", units="cm")
+    assert main(["render", str(cm), "--out", str(tmp_path / "cm.gif"), "--size", "32x24",
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert f"quadsim: warning: {cm}: read as centimetres" in err and "--units m" in err
+    assert main(["render", str(cm), "--units", "cm", "--out", str(tmp_path / "cm.gif"),
+                 "--size", "32x24", "--quiet"]) == 0
+    assert "warning" not in capsys.readouterr().err
+
+
 # ------------------------------------------------------------- 6. GIF memory
 def _peak_bytes(motion, path) -> int:
     from quadsim.viz.render import render_video
