@@ -102,3 +102,21 @@ def test_links_are_written_through_and_read_only_files_refused(tmp_path):
     (tmp_path / "dir.txt").mkdir()
     with pytest.raises(InputError, match=r"dir\.txt: cannot write the file: it is a folder"):
         atomic_write(tmp_path / "dir.txt", lambda f: f.write("x"))
+
+
+def test_a_signal_swallowed_by_a_callback_still_stops_the_write(tmp_path):
+    """C code calling back into Python (VTK) may swallow the exception and carry on."""
+    path = tmp_path / "keep.txt"
+    path.write_text("old")
+
+    def write(f):
+        try:
+            os.kill(os.getpid(), signal.SIGINT)
+            f.write("part")                      # the handler raises here...
+        except KeyboardInterrupt:
+            pass                                 # ...and a careless callback swallows it
+        f.write("rest")
+
+    with pytest.raises(KeyboardInterrupt), cleanup_on_signals():
+        atomic_write(path, write)
+    assert path.read_text() == "old" and names(tmp_path) == ["keep.txt"]

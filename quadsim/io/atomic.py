@@ -35,10 +35,13 @@ from typing import IO
 from quadsim.errors import InputError
 
 __all__ = ["SignalExit", "atomic_output", "atomic_write", "atomic_write_bytes",
-           "cleanup_on_signals", "output_path", "pending_temporaries", "remove_temporaries"]
+           "check_signals", "cleanup_on_signals", "output_path", "pending_temporaries",
+           "remove_temporaries"]
 
 _PENDING: set[str] = set()
 _LOCK = threading.Lock()
+#: The signal received under :func:`cleanup_on_signals`, until the block ends.
+_RECEIVED: list[int] = []
 
 
 class SignalExit(SystemExit):
@@ -176,6 +179,7 @@ def atomic_output(path: str | os.PathLike, *, suffix: str = "",
         _PENDING.add(key)       # before the file exists: a signal can always find it
     try:
         yield tmp
+        check_signals()
         try:
             mode = stat.S_IMODE(target.stat().st_mode)
         except OSError:
@@ -263,12 +267,12 @@ def cleanup_on_signals(signals=(signal.SIGTERM, signal.SIGINT)) -> Iterator[None
         return
 
     def handler(signum, frame):
+        _RECEIVED.append(int(signum))
         remove_temporaries()
-        if signum == signal.SIGINT:
-            raise KeyboardInterrupt
-        raise SignalExit(signum)
+        _raise_for(int(signum))
 
     old = {}
+    _RECEIVED.clear()
     try:
         for s in signals:
             old[s] = signal.signal(s, handler)
@@ -276,3 +280,22 @@ def cleanup_on_signals(signals=(signal.SIGTERM, signal.SIGINT)) -> Iterator[None
     finally:
         for s, h in old.items():
             signal.signal(s, h)
+        _RECEIVED.clear()
+
+
+def _raise_for(signum: int):
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
+    raise SignalExit(signum)
+
+
+def check_signals() -> None:
+    """Raise again for a signal already received under :func:`cleanup_on_signals`.
+
+    The handler raises where the program is, and code that calls back into
+    Python from C (a VTK pipeline) may swallow the exception and carry on;
+    long loops and :func:`atomic_output` call this so that the program still
+    stops, and never publishes a file after the signal.
+    """
+    if _RECEIVED:
+        _raise_for(_RECEIVED[0])

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadsim.io.atomic import atomic_output
+from quadsim.io.atomic import atomic_output, check_signals
 from quadsim.viz.scene import CAMERAS, GROUND_SUB, Scene, parse_size
 
 __all__ = ["FORMATS", "render_frames", "render_video"]
@@ -275,6 +275,7 @@ def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: st
         stream = None
         try:
             for img in frames:
+                check_signals()     # a signal swallowed inside VTK still stops the render
                 if stream is None:  # after the first frame: the heavy imports are done
                     stream = open_stream(tmp, ext, (w, h), motion.fps, quality)
                 stream.append(img)
