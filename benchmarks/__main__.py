@@ -1,7 +1,7 @@
-"""``python -m benchmarks``: run the benchmark suite (see :mod:`benchmarks.suite`)."""
+"""``python -m benchmarks``: run the benchmark suite (see :mod:`benchmarks.command`)."""
 
 import sys
 
-from benchmarks.suite import main
+from benchmarks.command import main
 
 sys.exit(main())

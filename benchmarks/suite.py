@@ -35,16 +35,12 @@ Measures, on this machine and CPU only:
 Every figure is the median over repeats of wall-clock time, and also of
 this process's CPU time (``*_cpu_*``), steadier on a shared machine; the
 JSON result also keeps each repeat and the load average, since a busy
-machine shows in the numbers. The result goes to
-``benchmarks/results/<machine>.json`` unless ``--out`` says otherwise, where
-``<machine>`` names the CPU model and its number of cores.
+machine shows in the numbers. The command line is :mod:`benchmarks.command`.
 """
 
 from __future__ import annotations
 
-import argparse
 import copy
-import json
 import os
 import platform
 import re
@@ -241,8 +237,8 @@ def _data_tour_script():
     each start, so the second pass leaps too (a leap is once per command object)."""
     import dataclasses
 
-    from quadsim.config import load_config
     from quadsim.commands import Script
+    from quadsim.config import load_config
 
     s = load_config(ROOT / "configs" / "horse_data.toml").commands
     half = CLIP_SECONDS / 2
@@ -305,8 +301,8 @@ def bench_many(character: str, ns, frames_for, repeats_for, loop_up_to: int = 10
     import resource
     import tracemalloc
 
-    from quadsim.locomotion.batch import BatchController
     from quadsim.commands import Command
+    from quadsim.locomotion.batch import BatchController
     from quadsim.locomotion.controller import ProceduralController
 
     ch = _load(character)
@@ -582,39 +578,3 @@ def bench_simulate_short(character: str):
     t = (time.perf_counter() - t0) * CLIP_SECONDS / 5.0
     return {"seconds": t, "repeats": [round(t, 3)], "frames": motion.n_frames,
             "real_time_factor": CLIP_SECONDS / t, "note": "5 s clip, scaled to 60 s"}, motion
-
-
-def add_arguments(ap: argparse.ArgumentParser) -> None:
-    ap.add_argument("--quick", action="store_true",
-                    help="a short smoke run (seconds, not minutes); figures are rough")
-    ap.add_argument("--max-n", type=int, default=1000, metavar="N",
-                    help="largest number of characters stepped together (1000; 10000 adds "
-                    "the largest herd)")
-    ap.add_argument("--characters", metavar="A,B",
-                    help="characters to measure, comma-separated (default: all four; the "
-                    "first is used for the many-characters and export figures)")
-    ap.add_argument("--out", metavar="FILE.json",
-                    help="result file (default benchmarks/results/<machine>.json)")
-
-
-def main(argv: list[str] | None = None) -> int:
-    os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")   # as the quadsim command does
-    ap = argparse.ArgumentParser(prog="python -m benchmarks",
-                                 description="Benchmark quadsim: step, simulate, many "
-                                 "characters, export.")
-    add_arguments(ap)
-    return run_from_args(ap.parse_args(argv))
-
-
-def run_from_args(args) -> int:
-    chars = tuple(args.characters.split(",")) if getattr(args, "characters", None) else CHARACTERS
-    result = run(quick=args.quick, max_n=args.max_n, characters=chars)
-    out = Path(args.out) if args.out else RESULTS / f"{machine_slug(result['machine'])}.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2) + "\n", encoding="utf-8")
-    print(f"wrote {out}")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

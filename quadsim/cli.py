@@ -146,6 +146,7 @@ def cmd_validate(args) -> int:
 
 def cmd_metrics(args) -> int:
     from quadsim.analysis.metrics import format_report, motion_report
+    from quadsim.frames import LEGS
     from quadsim.io.bvh import read_bvh
 
     path = Path(args.file)
@@ -153,8 +154,30 @@ def cmd_metrics(args) -> int:
         raise InputError(f"{path}: no such file")
     if not (math.isfinite(args.start) and args.start >= 0):
         raise InputError(f"`--start` = {args.start}: must be a time >= 0 s")
-    motion = read_bvh(path, units=args.units)
-    report = motion_report(motion, start=args.start)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        motion = read_bvh(path, units=args.units)
+    for w in caught:
+        print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+    from quadsim.io.guess import with_feet
+
+    motion, by_shape = with_feet(motion, path)
+    if by_shape:
+        print(f"{PROG}: warning: {path}: feet taken from the skeleton's shape: "
+              + ", ".join(f"{leg} {name}" for leg, name in zip(LEGS, motion.foot_joints)),
+              file=sys.stderr)
+    n, fps = len(motion), motion.fps
+    if n < 3:
+        raise InputError(f"{path}: the file has {n} frame{'' if n == 1 else 's'}; "
+                         "measuring a motion needs at least 3")
+    if math.ceil(args.start * fps - 1e-9) > n - 3:
+        raise InputError(f"{path}: `--start` = {args.start:g} s leaves fewer than 3 frames to "
+                         f"measure: the motion lasts {(n - 1) / fps:.3f} s ({n} frames at "
+                         f"{fps:g} fps); give a smaller --start")
+    try:
+        report = motion_report(motion, start=args.start)
+    except ValueError as e:
+        raise InputError(f"{path}: {e}") from None
     if args.json:
         print(json.dumps(report, indent=2, default=_json_default))
     else:
@@ -295,7 +318,19 @@ def cmd_render(args) -> int:
                          "height")
     if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= 240):
         raise InputError(f"`--fps` = {args.fps}: must be from 0 to 240 frames per second")
-    motion = _motion_source(args.source, args.seconds, args.units)
+    from quadsim.io.atomic import output_path
+
+    output_path(out)  # a folder or a read-only file is refused before the work
+    from quadsim.io.bvh import BvhUnitsWarning
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", BvhUnitsWarning)
+        motion = _motion_source(args.source, args.seconds, args.units)
+    for w in caught:
+        if issubclass(w.category, BvhUnitsWarning):
+            print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+        else:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
     if args.fps is None and Path(args.source).suffix.lower() != ".bvh":
         from quadsim.viz.render import DEFAULT_FPS
 
@@ -317,14 +352,14 @@ def cmd_render(args) -> int:
 def cmd_bench(args) -> int:
     # the suite lives in the source checkout's benchmarks/, beside the package
     try:
-        from benchmarks.suite import run_from_args
+        from benchmarks.command import run_from_args
     except ImportError:
         root = Path(__file__).resolve().parents[1]
         if not (root / "benchmarks" / "suite.py").is_file():
             raise InputError("the benchmark suite is not installed: run `quadsim bench` "
                              "from a source checkout of quadsim") from None
         sys.path.insert(0, str(root))
-        from benchmarks.suite import run_from_args
+        from benchmarks.command import run_from_args
     if args.max_n < 1:
         raise InputError(f"`--max-n` = {args.max_n}: give at least 1 character")
     return run_from_args(args)
@@ -376,8 +411,9 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--json", action="store_true", help="print the report as JSON")
     m.add_argument("--start", type=float, default=0.0, metavar="S",
                    help="ignore the first S seconds (default 0)")
-    m.add_argument("--units", choices=("m", "cm"), default="m",
-                   help="length unit of the file (default m)")
+    m.add_argument("--units", choices=("m", "cm"),
+                   help="length unit of the file (default: detected from the skeleton's size, "
+                   "centimetres when it stands over 3 units tall at the hips)")
     m.set_defaults(func=cmd_metrics)
 
     d = sub.add_parser("diagram", help="draw the gait diagram of a config or a BVH file",
@@ -427,8 +463,9 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--camera", choices=("follow", "side", "top"), default="follow",
                     help="follow (behind-left, turning with it), side or top")
     rd.add_argument("--fps", type=float, metavar="N", help="video frame rate")
-    rd.add_argument("--units", choices=("m", "cm"), default="m",
-                    help="length unit of a BVH file (default m)")
+    rd.add_argument("--units", choices=("m", "cm"),
+                    help="length unit of a BVH file (default: detected from the skeleton's "
+                    "size)")
     rd.add_argument("--quiet", action="store_true", help="no progress bar")
     rd.set_defaults(func=cmd_render)
 
@@ -436,13 +473,16 @@ def build_parser() -> argparse.ArgumentParser:
                        "characters and export on this machine",
                        description="Run the benchmark suite (the same as `python -m "
                        "benchmarks`): print medians over repeats and the machine's details, "
-                       "and write benchmarks/results/<machine>.json.")
-    b.add_argument("--quick", action="store_true", help="a short, rough smoke run")
+                       "and write benchmarks/results/<machine>.json (a --quick run writes "
+                       "out/bench-quick.json instead, unless --out names the file).")
+    b.add_argument("--quick", action="store_true", help="a short, rough smoke run, written "
+                   "to out/bench-quick.json unless --out says otherwise")
     b.add_argument("--max-n", type=int, default=1000, metavar="N",
                    help="largest number of characters stepped together (1000)")
     b.add_argument("--characters", metavar="A,B",
                    help="characters to measure, comma-separated (default all four)")
-    b.add_argument("--out", metavar="FILE.json", help="result file")
+    b.add_argument("--out", metavar="FILE.json", help="result file (default "
+                   "benchmarks/results/<machine>.json, or out/bench-quick.json with --quick)")
     b.set_defaults(func=cmd_bench)
     return p
 
@@ -486,10 +526,18 @@ def main(argv: list[str] | None = None) -> int:
     # with other busy jobs the threaded batch then keeps its pace (README, Performance)
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
     _announce_compiling()
+    from quadsim.io.atomic import SignalExit, cleanup_on_signals
+
     parser = build_parser()
     try:
-        args = parser.parse_args(argv)
-        return int(args.func(args) or 0)
+        # SIGTERM/SIGINT remove unfinished output files before the command stops
+        with cleanup_on_signals():
+            args = parser.parse_args(argv)
+            return int(args.func(args) or 0)
+    except SignalExit as e:
+        print(f"{PROG}: stopped by signal {e.signum}; unfinished files removed",
+              file=sys.stderr)
+        return e.code
     except SystemExit as e:  # --help
         return e.code if isinstance(e.code, int) else 0
     except (_UsageError, InputError) as e:
@@ -506,7 +554,7 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:
         return _fail(f"{e.filename + ': ' if e.filename else ''}{e.strerror or e}")
     except KeyboardInterrupt:
-        print(f"{PROG}: interrupted", file=sys.stderr)
+        print(f"{PROG}: interrupted; unfinished files removed", file=sys.stderr)
         return 130
 
 

@@ -68,11 +68,19 @@ def test_cameras_see_different_views(trot):
     assert not np.array_equal(views["side"], views["top"])
 
 
-def test_render_from_config_resamples(tmp_path):
-    cfg = REPO / "configs" / "dog_cub.toml"
-    out = render_video(cfg, tmp_path / "cub.gif", size=(64, 48), seconds=0.4, progress=False)
-    # 0.4 s at the config's 60 fps (24 frames, 0 to 0.383 s) shown at 25 fps
-    assert iio.imread(out, index=None).shape[0] == 10
+def test_render_cuts_and_resamples_a_bvh_file(trot, tmp_path):
+    write_bvh(trot, tmp_path / "trot.bvh")
+    out = render_video(tmp_path / "trot.bvh", tmp_path / "t.gif", size=(64, 48), seconds=0.4,
+                       fps=25.0, progress=False)
+    # 0.4 s at 30 fps (13 frames, 0 to 0.4 s) shown at 25 fps: 0 to 0.4 s
+    assert iio.imread(out, index=None).shape[0] == 11
+
+
+def test_render_takes_a_motion_not_a_config(tmp_path):
+    """Turning a config into a motion is the front door's job, not the renderer's."""
+    with pytest.raises(ValueError, match="takes a Motion or a .bvh file"):
+        render_video(REPO / "configs" / "dog_cub.toml", tmp_path / "cub.gif", progress=False)
+    assert not list(tmp_path.iterdir())
 
 
 def test_progress_bar_text():

@@ -6,6 +6,10 @@ Conventions of the files this module writes, and how it reads others:
   +X the character's left), so positions and rotations pass through as they are.
 - **Units**: lengths in the file are metres (``units="m"``) or centimetres
   (``units="cm"``); angles are degrees. Inside quadsim everything is SI.
+  Reading without a unit detects it from the skeleton's size
+  (:func:`quadsim.io.guess.guess_units`: a rest pose standing more than 3
+  file units tall at the hips is in centimetres) and says so with a
+  :class:`BvhUnitsWarning` when it picks centimetres.
 - **Rotations**: each joint's ``CHANNELS`` list its rotation channels in the
   order they are applied, intrinsically: ``Zrotation Xrotation Yrotation``
   means ``R = Rz(z) @ Rx(x) @ Ry(y)`` (the usual BVH reading; Blender's too).
@@ -44,8 +48,8 @@ from pathlib import Path
 import numpy as np
 
 from quadsim.errors import InputError
-from quadsim.frames import LEGS
 from quadsim.io.atomic import atomic_write
+from quadsim.io.guess import guess_foot_joints, guess_units, rest_hip_height
 from quadsim.kinematics.rotations import (
     euler_from_matrices,
     matrices_about_axis,
@@ -55,7 +59,7 @@ from quadsim.kinematics.rotations import (
 from quadsim.skeleton.motion import Motion
 from quadsim.skeleton.skeleton import Skeleton
 
-__all__ = ["guess_foot_joints", "read_bvh", "write_bvh"]
+__all__ = ["BvhUnitsWarning", "guess_foot_joints", "read_bvh", "write_bvh"]
 
 #: File units and how many of them make a metre.
 UNITS = {"m": 1.0, "cm": 100.0}
@@ -66,6 +70,12 @@ _CHANNELS = {f"{a}{kind}".lower(): (kind, i)
              for kind in ("position", "rotation") for i, a in enumerate(_AXES)}
 _CANONICAL = {f"{a}{kind}".lower(): f"{a}{kind}"
               for kind in ("position", "rotation") for a in _AXES}
+
+
+class BvhUnitsWarning(UserWarning):
+    """A BVH file was read in a unit detected from its skeleton's size, not given."""
+
+
 #: A non-root position channel counts as constant when it varies less than this (m).
 _CONSTANT_TOL = 1e-9
 _NAME_OK = re.compile(r"^[^\s{}]+$")
@@ -239,14 +249,19 @@ class _Tokens:
         return out
 
 
-def read_bvh(path: str | os.PathLike, *, units: str = "m", fps: float | None = None) -> Motion:
+def read_bvh(path: str | os.PathLike, *, units: str | None = None,
+             fps: float | None = None) -> Motion:
     """Read a BVH file into a :class:`~quadsim.skeleton.motion.Motion`.
 
     Parameters
     ----------
     path : str or path-like
-    units : {"m", "cm"}
-        Length unit the file's OFFSETs and positions are in.
+    units : {"m", "cm"}, optional
+        Length unit the file's OFFSETs and positions are in. None (the
+        default) detects it from the rest pose's hip height: above
+        :data:`~quadsim.io.guess.CM_ABOVE` file units (a quadruped's hip
+        height in metres is 0.1 to 3) the file is read as centimetres, with
+        a :class:`BvhUnitsWarning` naming the file and the height.
     fps : float, optional
         Frame rate; by default ``1 / Frame Time``, snapped to a whole number of
         frames per second when the Frame Time, as written, is that rate's frame
@@ -264,7 +279,8 @@ def read_bvh(path: str | os.PathLike, *, units: str = "m", fps: float | None = N
         A missing or malformed file; the message names the file, the line and
         what was expected there.
     """
-    scale = _unit_scale(units)
+    if units is not None:
+        _unit_scale(units)
     if fps is not None:
         try:
             fps = float(fps)
@@ -289,6 +305,9 @@ def read_bvh(path: str | os.PathLike, *, units: str = "m", fps: float | None = N
         raise tok.error(1, "empty file, expected HIERARCHY")
 
     joints = _parse_hierarchy(tok)
+    if units is None:
+        units = _detect_units(src, joints)
+    scale = _unit_scale(units)
     n_frames, frame_time, frames_line, start = _parse_motion_header(tok, lines)
     n_channels = sum(len(j.channels) for j in joints)
     data = _parse_frames(tok, lines, start, n_frames, n_channels, frames_line)
@@ -550,32 +569,21 @@ def _build_motion(tok: _Tokens, joints: list[_Joint], data: np.ndarray, scale: f
 
 
 # ===================================================================== helpers
-def guess_foot_joints(skeleton: Skeleton) -> tuple[str, ...] | None:
-    """The four foot joints of a skeleton named in quadsim's convention.
+def _detect_units(src: str, joints: list[_Joint]) -> str:
+    """The unit of a file from its rest pose's size, with a warning when it is not metres."""
+    import warnings
 
-    For each leg in the order LF, RF, LH, RH: the deepest joint whose name
-    starts with the leg's prefix and an underscore (``LF_paw``, ``RH_hoof``);
-    among equally deep ones, the first in the skeleton's order.
-
-    Parameters
-    ----------
-    skeleton : Skeleton
-
-    Returns
-    -------
-    tuple of str, length 4, or None
-        ``None`` when some leg has no such joint.
-    """
-    depth = np.zeros(skeleton.n_joints, dtype=int)
-    for d, idx in enumerate(skeleton.depth_levels):
-        depth[idx] = d
-    feet = []
-    for leg in LEGS:
-        cands = [j for j, n in enumerate(skeleton.names) if n.startswith(leg + "_")]
-        if not cands:
-            return None
-        feet.append(skeleton.names[max(cands, key=lambda j: (depth[j], -j))])
-    return tuple(feet)
+    index = {id(j): k for k, j in enumerate(joints)}
+    ends = [(index[id(j)], j.end_site) for j in joints if j.end_site is not None]
+    h = rest_hip_height(np.array([j.offset for j in joints]), [j.parent for j in joints], ends)
+    units = guess_units(h)
+    if units != "m":
+        warnings.warn(BvhUnitsWarning(
+            f"{src}: read as centimetres: its skeleton stands {h:.4g} units tall at the hips "
+            f"({h / 100:.3g} m in centimetres, {h:.4g} m in metres, more than a quadruped); "
+            "give the unit to read it otherwise (units='m', on the command line --units m)"),
+            stacklevel=3)
+    return units
 
 
 def _unit_scale(units: str) -> float:

@@ -4,8 +4,8 @@ matplotlib and pyvista are imported only inside the functions that draw, so
 importing :mod:`quadsim.viz` is cheap.
 
 - :mod:`quadsim.viz.diagram`: footfall diagram, Hildebrand plot, CPG phases
-  and spine angle (matplotlib); :func:`footfall_data` is the pure-numpy
-  measurement behind it.
+  and spine angle (matplotlib); :func:`footfall_data`
+  (:mod:`quadsim.viz.footfalls`) is the pure-numpy measurement behind it.
 - :mod:`quadsim.viz.body`: a renderable body (capsule bones and joint
   spheres in one mesh, posed by per-bone transforms).
 - :mod:`quadsim.viz.scene`: the pyvista scene (body, scrolling ground grid,
@@ -14,8 +14,9 @@ importing :mod:`quadsim.viz` is cheap.
   in a window.
 - :mod:`quadsim.viz.live`: the one interface the preview steps both
   controllers through (procedural, and the data-driven horse).
-- :mod:`quadsim.viz.render`: :func:`render_video` to ``.mp4`` or ``.gif``
-  off screen.
+- :mod:`quadsim.viz.render`: :func:`render_video` of a motion to ``.mp4`` or
+  ``.gif`` off screen, streamed to the encoders of :mod:`quadsim.viz.video`,
+  on the ground the motion walks on (:mod:`quadsim.viz.terrain`).
 """
 
 from quadsim.viz.body import BodyMesh

@@ -1,65 +1,74 @@
 """Render a motion to a video file off screen (``.mp4`` or ``.gif``).
 
 :func:`render_video` poses the :class:`~quadsim.viz.body.BodyMesh` for every
-frame (forward kinematics once, for all frames), draws the
+frame (forward kinematics for :data:`FK_CHUNK` frames at a time), draws the
 :class:`~quadsim.viz.scene.Scene` off screen -- VTK renders through EGL or
-OSMesa on a machine without a display -- and streams the frames to the file:
+OSMesa on a machine without a display -- and streams the frames, one at a
+time, to the encoder (:mod:`quadsim.viz.video`), so memory does not grow
+with the length of the video:
 
-- ``.mp4``: H.264 through imageio-ffmpeg (``yuv420p``, so the width and the
-  height must be even);
-- ``.gif``: Pillow through imageio, looping; GIF stores frame times in
-  hundredths of a second, so the frame rate is best a divisor of 100 (25 or
-  50 fps play exactly; the default for a config is 25 fps).
+- ``.mp4``: H.264 through the ffmpeg of imageio-ffmpeg (``yuv420p``, so the
+  width and the height must be even);
+- ``.gif``: Pillow's GIF encoder, looping, a palette per frame; GIF stores
+  frame times in hundredths of a second, so the frame rate is best a divisor
+  of 100 (25 or 50 fps play exactly; the CLI's default for a config is 25 fps).
 
-The file is written to a temporary name beside the target and renamed when
-complete, so a failed render leaves no partial file.
+A motion that carries the ground under its feet (``extras["ground"]``, the
+data-driven horse on ramps) is drawn on that ground
+(:func:`quadsim.viz.terrain.motion_ground`), not on the plane ``y = 0``.
+
+The file is written whole or not at all (:func:`quadsim.io.atomic.atomic_output`):
+to a temporary file beside the target, moved into place when the encoder
+has finished successfully; a failure (a full disk, an encoder error, a
+signal) leaves an existing file as it was and no temporary file.
+
+:func:`render_video` takes a :class:`~quadsim.skeleton.motion.Motion` (or a
+BVH file); turning a config into a motion is the job of the front door that
+simulates it.
 """
 
 from __future__ import annotations
 
+import gc
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-from quadsim.viz.scene import CAMERAS, Scene, parse_size
+from quadsim.io.atomic import atomic_output, check_signals
+from quadsim.viz.scene import CAMERAS, GROUND_SUB, Scene, parse_size
 
 __all__ = ["FORMATS", "render_frames", "render_video"]
 
 #: Video formats by extension.
 FORMATS = (".mp4", ".gif")
-#: Frame rate of a video rendered from a config, by extension.
+#: Frames posed together (forward kinematics); memory does not grow with the length.
+FK_CHUNK = 128
+#: Frame rate of a video of a simulated config, by extension (the CLI's default).
 DEFAULT_FPS = {".mp4": 30.0, ".gif": 25.0}
 
 
-def _motion_from(source, seconds: float | None, fps: float | None, ext: str):
-    """(motion, character or None) for a Motion, RunConfig or config path."""
-    from quadsim.config import RunConfig, load_config
+def _motion_from(source, seconds: float | None, fps: float | None):
+    """The motion to render: a Motion as given, or a BVH file read; cut and resampled."""
     from quadsim.skeleton.motion import Motion
 
-    if isinstance(source, Motion):
-        motion = source
-        if seconds is not None:
-            motion = motion.time_slice(0.0, seconds + 0.5 / motion.fps)
-        if fps is not None and abs(fps - motion.fps) > 1e-9:
-            motion = motion.resample(fps)
-        return motion, None
-    config = source if isinstance(source, RunConfig) else load_config(source)
-    from quadsim.config import with_overrides
-    from quadsim.locomotion import simulate
+    if not isinstance(source, Motion):
+        path = Path(source)
+        if path.suffix.lower() != ".bvh":
+            raise ValueError(f"render_video takes a Motion or a .bvh file, got {str(path)!r}; "
+                             "simulate the config first and pass its motion")
+        from quadsim.io.bvh import read_bvh
 
+        source = read_bvh(path, units=None)
+    motion = source
     if seconds is not None:
-        config = with_overrides(config, duration=seconds)
-    character = config.load_character()
-    motion = simulate(character, config.commands, config.duration, config.fps, seed=config.seed)
-    want = DEFAULT_FPS.get(ext, 30.0) if fps is None else float(fps)
-    if abs(want - motion.fps) > 1e-9:
-        motion = motion.resample(want)
-    return motion, character
+        motion = motion.time_slice(0.0, seconds + 0.5 / motion.fps)
+    if fps is not None and abs(fps - motion.fps) > 1e-9:
+        motion = motion.resample(fps)
+    return motion
 
 
 def _character_for(motion):
@@ -136,6 +145,8 @@ def render_frames(motion, *, size=(640, 480), camera: str = "follow", character=
     Parameters
     ----------
     motion : Motion
+        With ``extras["ground"]`` (T, 4) the body is drawn on that ground
+        (:func:`~quadsim.viz.terrain.motion_ground`), else on ``y = 0``.
     size : (int, int) or str
     camera : {"follow", "side", "top"}
     character : Character, optional
@@ -152,26 +163,36 @@ def render_frames(motion, *, size=(640, 480), camera: str = "follow", character=
         raise ValueError(f"camera {camera!r}: choose one of {', '.join(CAMERAS)}")
     if character is None:
         character = _character_for(motion)
-    G = motion.world_rotations()
-    P = motion.world_positions()
     if character is not None and sorted(character.skeleton.names) == sorted(
             motion.skeleton.names):
         # the character's body, its joints picked out of the motion's order
         # (a BVH file lists them depth first)
         perm = motion.skeleton.indices(character.skeleton.names)
-        G, P = G[:, perm], P[:, perm]
         body = BodyMesh.from_character(character)
         scale = character.hip_height
     else:
+        perm = np.arange(motion.skeleton.n_joints)
         body = BodyMesh.from_skeleton(motion.skeleton)
         scale = body_scale(motion.skeleton)
     scene = Scene(body, scale, size=size, off_screen=True, camera=camera,
                   anti_aliasing=anti_aliasing)
     try:
-        H = _headings(motion)
+        from quadsim.viz.terrain import motion_ground
+
+        ground = motion_ground(motion, cell=scene.spacing / GROUND_SUB)
         dt = 1.0 / motion.fps
         for k in range(len(motion)):
-            scene.set_pose(G[k], P[k], H[k])
+            if k % FK_CHUNK == 0:   # forward kinematics a chunk at a time: memory stays flat
+                if k:
+                    # the encoders and pyvista leave reference cycles behind every frame;
+                    # collect them here so that they cannot pile up over a long video
+                    gc.collect()
+                part = motion[k:k + FK_CHUNK]
+                G = part.world_rotations()[:, perm]
+                P = part.world_positions()[:, perm]
+                H = _headings(part)
+            i = k % FK_CHUNK
+            scene.set_pose(G[i], P[i], H[i], ground=ground)
             scene.update_camera(dt if k else 0.0)
             yield scene.image()
             if progress is not None:
@@ -183,14 +204,16 @@ def render_frames(motion, *, size=(640, 480), camera: str = "follow", character=
 def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: str = "follow",
                  progress: bool = True, fps: float | None = None, seconds: float | None = None,
                  anti_aliasing: str | None = None, quality: float = 7.0) -> Path:
-    """Render a motion, or a run configuration, to an ``.mp4`` or ``.gif`` file off screen.
+    """Render a motion to an ``.mp4`` or ``.gif`` file off screen, whole or not at all.
 
     Parameters
     ----------
-    source : Motion, RunConfig, or str or path-like
-        A motion, a run configuration, or a config file path (simulated first).
+    source : Motion, or str or path-like
+        A motion, or a ``.bvh`` file (read with its unit detected, see
+        :func:`quadsim.io.bvh.read_bvh`).
     path : str or path-like
         Output file; the format follows the extension (``.mp4`` or ``.gif``).
+        A symbolic link is written through; a read-only file is refused.
     size : (int, int) or str
         ``(width, height)`` in pixels or ``"WxH"``; even numbers for ``.mp4``.
     camera : {"follow", "side", "top"}
@@ -200,10 +223,9 @@ def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: st
         True prints a progress bar on stderr; a callable receives the number
         of frames done.
     fps : float, optional
-        Frame rate of the video. Default: a motion's own; a config's
-        simulation is resampled to 30 fps (``.mp4``) or 25 fps (``.gif``).
+        Frame rate of the video (the motion is resampled); default the motion's.
     seconds : float, optional
-        Duration to render (a config's duration is replaced; a motion is cut).
+        Duration to render (the motion is cut).
     anti_aliasing : {None, "ssaa"}
         "ssaa" smooths edges at several times the cost of a frame.
     quality : float
@@ -217,7 +239,13 @@ def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: st
     Raises
     ------
     ValueError
-        For an unsupported extension, camera or size, or odd MP4 dimensions.
+        For an unsupported extension, camera or size, odd MP4 dimensions, a
+        source that is neither a motion nor a BVH file, or a motion without
+        frames.
+    InputError
+        When the file cannot be written (a full disk, a read-only file, an
+        encoder failure): the message names the file and the reason, and an
+        existing file is left as it was.
     """
     path = Path(path)
     ext = path.suffix.lower()
@@ -234,49 +262,27 @@ def render_video(source, path: str | os.PathLike, *, size=(640, 480), camera: st
         raise ValueError(f"fps {fps!r}: must be a number of frames per second from 0 to 240")
     if seconds is not None and not (math.isfinite(seconds) and seconds > 0):
         raise ValueError(f"seconds {seconds!r}: must be a positive duration")
-    import imageio.v2 as imageio
+    from quadsim.viz.video import open_stream
 
-    motion, character = _motion_from(source, seconds, fps, ext)
+    motion = _motion_from(source, seconds, fps)
     if len(motion) == 0:
         raise ValueError("the motion has no frames to render")
     bar = progress if callable(progress) else (
         _Progress(f"render {path.name}", len(motion)) if progress else None)
-    frames = render_frames(motion, size=(w, h), camera=camera, character=character,
-                           anti_aliasing=anti_aliasing, progress=bar)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=ext, dir=path.parent)
-    os.close(fd)
-    try:
-        if ext == ".mp4":
-            writer = imageio.get_writer(tmp, format="FFMPEG", mode="I", fps=motion.fps,
-                                        codec="libx264", quality=quality,
-                                        pixelformat="yuv420p", macro_block_size=1,
-                                        ffmpeg_log_level="error")
-            try:
-                for img in frames:
-                    writer.append_data(img)
-            finally:
-                writer.close()
-        else:
-            import imageio.v3 as iio
-
-            stack = np.stack(list(frames))
-            iio.imwrite(tmp, stack, extension=".gif", plugin="pillow",
-                        duration=1000.0 / motion.fps, loop=0)
-        _publish(tmp, path)
-    except BaseException:
-        frames.close()
+    with atomic_output(path, suffix=ext, make_folder=True) as tmp:
+        frames = render_frames(motion, size=(w, h), camera=camera,
+                               anti_aliasing=anti_aliasing, progress=bar)
+        stream = None
         try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+            for img in frames:
+                check_signals()     # a signal swallowed inside VTK still stops the render
+                if stream is None:  # after the first frame: the heavy imports are done
+                    stream = open_stream(tmp, ext, (w, h), motion.fps, quality)
+                stream.append(img)
+        except BaseException:
+            if stream is not None:
+                stream.abort()
+            frames.close()
+            raise
+        stream.close()
     return path
-
-
-def _publish(tmp: str, path: Path) -> None:
-    """Give a finished temporary file the usual permissions and move it into place."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(tmp, 0o666 & ~umask)
-    os.replace(tmp, path)

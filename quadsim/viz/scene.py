@@ -7,7 +7,8 @@ A :class:`Scene` holds one :class:`pyvista.Plotter` with
 - a ground plane and grid that follow the character in whole grid cells, so
   the lines stay fixed in the world and scroll under it; given a height field
   (the data-driven horse's sloped :class:`~quadsim.horse.slope.Ground`), the
-  plane and the grid follow its heights, sampled at a quarter of a grid cell,
+  plane and the grid follow its heights, sampled at a quarter of a grid cell
+  (a recorded motion's ground is rebuilt by :mod:`quadsim.viz.terrain`),
 - a soft blob shadow under the body,
 - a :class:`CameraRig`: ``"follow"`` (behind and to the left, turning with
   the heading), ``"side"`` (from the character's left) or ``"top"``.
@@ -306,7 +307,9 @@ class Scene:
             The body's heading (rad).
         ground : object, optional
             A height field with ``height(xz) -> y`` for points (..., 2) [x, z]
-            (:class:`~quadsim.horse.slope.Ground`); None is the plane y = 0.
+            and a ``ramps`` sequence whose length changes when it does
+            (:class:`~quadsim.horse.slope.Ground`,
+            :class:`~quadsim.viz.terrain.TrackGround`); None is the plane y = 0.
             The plane, the grid, the shadow and the camera follow it.
         """
         self.body.update(self.mesh, world_rotations, world_positions)
