@@ -94,8 +94,9 @@ def _check_out(out: Path) -> None:
         kind = f"{ext} files" if ext else "files without an extension"
         raise InputError(f"`--out` {str(out)!r}: cannot write {kind}; "
                          f"supported: {', '.join(FORMATS)}")
-    if out.is_dir():
-        raise InputError(f"`--out` {str(out)!r} is a folder; give a file name")
+    from quadsim.io.atomic import output_path
+
+    output_path(out)  # a folder or a read-only file is refused before the work
 
 
 def cmd_characters(args) -> int:
@@ -205,16 +206,24 @@ def _gaits_used(motion) -> list[str]:
 
 
 # ------------------------------------------------------- seeing motion (viz)
-def _motion_source(source: str, seconds: float | None, units: str = "m",
+def _motion_source(source: str, seconds: float | None, units: str | None = None,
                    mode: str | None = None):
-    """A motion from a BVH file (cut to ``seconds``), or the run of a config or character."""
+    """A motion from a BVH file (cut to ``seconds``; its unit detected unless ``units``
+    says), or the run of a config or character (the front door)."""
     path = Path(source)
     if path.suffix.lower() == ".bvh":
-        from quadsim.io.bvh import read_bvh
+        from quadsim.io.bvh import BvhUnitsWarning, read_bvh
 
         if not path.is_file():
             raise InputError(f"{path}: no such file")
-        motion = read_bvh(path, units=units)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", BvhUnitsWarning)
+            motion = read_bvh(path, units=units)
+        for w in caught:
+            if issubclass(w.category, BvhUnitsWarning):
+                _report_warning(str(w.message))
+            else:
+                warnings.showwarning(w.message, w.category, w.filename, w.lineno)
         if seconds is not None:
             if not (math.isfinite(seconds) and seconds > 0):
                 raise InputError(f"`--seconds` = {seconds}: must be a positive duration")
@@ -318,19 +327,14 @@ def cmd_render(args) -> int:
                          "height")
     if args.fps is not None and not (math.isfinite(args.fps) and 0 < args.fps <= 240):
         raise InputError(f"`--fps` = {args.fps}: must be from 0 to 240 frames per second")
+    from quadsim._optional import require, require_for
     from quadsim.io.atomic import output_path
 
+    require_for("render")
+    if out.suffix.lower() == ".mp4":
+        require("imageio_ffmpeg", "`quadsim render` to .mp4")
     output_path(out)  # a folder or a read-only file is refused before the work
-    from quadsim.io.bvh import BvhUnitsWarning
-
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", BvhUnitsWarning)
-        motion = _motion_source(args.source, args.seconds, args.units)
-    for w in caught:
-        if issubclass(w.category, BvhUnitsWarning):
-            print(f"{PROG}: warning: {w.message}", file=sys.stderr)
-        else:
-            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+    motion = _motion_source(args.source, args.seconds, args.units)
     if args.fps is None and Path(args.source).suffix.lower() != ".bvh":
         from quadsim.viz.render import DEFAULT_FPS
 
@@ -425,7 +429,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(default out/<name>-diagram.png)")
     d.add_argument("--seconds", type=float, metavar="S",
                    help="duration: replaces a config's, cuts a BVH file")
-    d.add_argument("--units", choices=("m", "cm"), default="m",
+    d.add_argument("--units", choices=("m", "cm"),
                    help="length unit of a BVH file (default m)")
     d.set_defaults(func=cmd_diagram)
 

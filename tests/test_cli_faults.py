@@ -402,13 +402,13 @@ def test_render_of_a_config_is_simulated_by_the_front_door(tmp_path, capsys):
 @pytest.fixture(scope="module")
 def climb(horse):
     """The data-mode horse cantering up an 8 degree ramp, then on the level top."""
+    import quadsim
     from quadsim.commands import Script
-    from quadsim.horse.controller import simulate as simulate_data
 
     script = Script((0.0, 1.0, 4.0), (Command(speed=6.0),
                                       Command(speed=6.0, slope=math.radians(8)),
                                       Command(speed=6.0)))
-    return simulate_data(horse, script, 6.0, 25.0)
+    return quadsim.simulate(horse, script, seconds=6.0, fps=25.0, mode="data")
 
 
 def test_the_rendered_ground_is_under_the_hooves(climb):
