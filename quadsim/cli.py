@@ -179,10 +179,21 @@ def cmd_metrics(args) -> int:
         report = motion_report(motion, start=args.start)
     except ValueError as e:
         raise InputError(f"{path}: {e}") from None
+    from quadsim.analysis.appearance import appearance_report, format_appearance
+
+    try:
+        report["appearance"] = appearance_report(motion, start=args.start)
+    except ValueError as e:  # no quadruped structure to measure the trunk and head on
+        report["appearance"] = None
+        print(f"{PROG}: warning: {path}: trunk, head and toe measures left out: {e}",
+              file=sys.stderr)
     if args.json:
         print(json.dumps(report, indent=2, default=_json_default))
     else:
         print(format_report(report))
+        if report["appearance"] is not None:
+            print("\nwhat a viewer sees (joint world positions):")
+            print(format_appearance(report["appearance"]))
     return 0
 
 

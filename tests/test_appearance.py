@@ -118,3 +118,23 @@ def test_flight_acceleration_sees_a_ballistic_fall(gallop):
     assert r1["flights"] == r0["flights"]
     np.testing.assert_allclose(np.array(r1["flight_accel_g"]) - r0["flight_accel_g"], -1.0,
                                atol=0.02)
+
+
+def test_quadsim_metrics_reports_what_a_viewer_sees_from_a_bvh(gallop, tmp_path, capsys):
+    """The same figures from the written file as from the motion in memory."""
+    import json
+
+    from quadsim.cli import main
+
+    path = quadsim.save(gallop, tmp_path / "gallop.bvh")
+    capsys.readouterr()
+    assert main(["metrics", str(path), "--json", "--start", "2"]) == 0
+    got = json.loads(capsys.readouterr().out)["appearance"]
+    want = appearance_report(gallop, start=2.0)
+    for key in ("strides", "flights"):
+        assert got[key] == want[key]
+    for key in ("stride_over_h", "cadence", "trunk_pitch_range_deg", "spine_flexion_range_deg",
+                "toe_slide_mm_p90"):
+        assert got[key] == pytest.approx(want[key], rel=1e-3, abs=1e-3), key
+    assert main(["metrics", str(path), "--start", "2"]) == 0
+    assert "what a viewer sees" in capsys.readouterr().out
