@@ -1,0 +1,311 @@
+"""One skinned body mesh for any quadruped skeleton: a smooth skin around the bones.
+
+:func:`skinned_body` builds it in the skeleton's rest (bind) pose:
+
+1. **Primitives.** The :class:`~quadsim.mesh.profiles.Profile`'s parts are laid
+   along the skeleton's chains as short tapered segments with elliptic or
+   boxy sections (:func:`quadsim.mesh.parts.primitives`).
+2. **Implicit surface.** Each segment has an approximate signed distance
+   ``d_i`` (negative inside); the body is the zero set of their smooth union
+   ``f = -k log(sum_i exp(-d_i / k))`` with the profile's blend radius ``k``,
+   so parts melt into each other over about ``k``. ``f`` is sampled on a grid
+   of the profile's voxel size, each segment only over its own box.
+3. **Surface.** scikit-image's ``marching_cubes`` meshes ``f = 0``; a few
+   Taubin smoothing passes (which keep the volume) remove the grid's steps,
+   and normals come from the smoothed faces.
+4. **Skin.** Every vertex takes the joint weights of the segments near it,
+   each segment's weights blended along it (:mod:`quadsim.mesh.parts`), the
+   segments weighted by ``exp(-(d_i - min d) / k)``; the four largest
+   weights are kept and normalised (:func:`quadsim.mesh.skinning.top_weights`).
+   Colours are blended the same way with a sharper falloff.
+
+Results are cached per skeleton (by its names, tree and rest offsets) and
+profile. The profile of a shipped character is found by matching the
+skeleton against the shipped characters' (:func:`profile_for`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadsim.mesh.parts import Primitives, bone_primitives, primitives
+from quadsim.mesh.profiles import Profile, profile_for_id
+from quadsim.mesh.skinning import top_weights
+from quadsim.skeleton.anatomy import find_anatomy
+from quadsim.skeleton.skeleton import Skeleton
+
+__all__ = ["SkinnedBody", "field_distances", "profile_for", "skinned_body"]
+
+#: Taubin smoothing passes and their two factors.
+SMOOTH_PASSES = 4
+SMOOTH_LAMBDA, SMOOTH_MU = 0.55, -0.58
+#: Radius of the tubes around the bones of a skeleton that is not a quadruped's,
+#: as a fraction of its scale (0.75 of its largest extent at rest).
+TUBE = 0.06
+#: Falloff of a segment's share of a vertex's weights, as a fraction of the blend radius.
+WEIGHT_SHARPNESS = 0.6
+#: Colour falloff as a fraction of the blend radius.
+COLOR_SHARPNESS = 0.35
+
+
+@dataclass(frozen=True, eq=False)
+class SkinnedBody:
+    """A closed triangle mesh at rest, skinned to the skeleton's joints.
+
+    Attributes
+    ----------
+    positions : ndarray, shape (V, 3)
+        Vertex positions in the world at rest (m).
+    normals : ndarray, shape (V, 3)
+        Unit outward normals.
+    triangles : ndarray of int, shape (F, 3)
+        Counter-clockwise seen from outside.
+    joints : ndarray of int, shape (V, 4)
+        Up to four influences per vertex, by decreasing weight; unused slots
+        hold joint 0.
+    weights : ndarray, shape (V, 4)
+        Influence weights, each row summing to 1; unused slots 0.
+    colors : ndarray, shape (V, 3)
+        RGB in [0, 1].
+    part : ndarray of int, shape (V,)
+        Index into :data:`~quadsim.mesh.profiles.PARTS` of the part nearest
+        each vertex.
+    profile : str
+        Name of the profile it was built from.
+    """
+
+    positions: np.ndarray
+    normals: np.ndarray
+    triangles: np.ndarray
+    joints: np.ndarray
+    weights: np.ndarray
+    colors: np.ndarray
+    part: np.ndarray
+    profile: str
+
+    @property
+    def n_vertices(self) -> int:
+        return len(self.positions)
+
+
+# ------------------------------------------------------------------ distances
+def field_distances(pr: Primitives, p: int, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Approximate signed distances of points to one segment, and their place along it.
+
+    Parameters
+    ----------
+    pr : Primitives
+    p : int
+        The segment.
+    X : ndarray, shape (n, 3)
+        Points (m).
+
+    Returns
+    -------
+    d : ndarray, shape (n,)
+        Negative inside the segment (m): the section-normalised radius minus
+        one, times the smaller half-size.
+    t : ndarray, shape (n,)
+        Fraction along the segment of each point's projection, in [0, 1].
+    """
+    L = max(pr.length[p], 1e-9)
+    rel = X - pr.a[p]
+    along = rel @ pr.axis[p]
+    t = np.clip(along / L, 0.0, 1.0)
+    e = along - t * L
+    du = rel @ pr.across[p]
+    dv = rel @ pr.up[p]
+    (w0, w1), (d0, d1) = pr.width[p], pr.depth[p]
+    w = w0 + (w1 - w0) * t
+    dd = d0 + (d1 - d0) * t
+    r = np.minimum(w, dd)
+    power = pr.power[p]
+    if power == 2.0:
+        q = np.sqrt((du / w) ** 2 + (dv / dd) ** 2 + (e / r) ** 2)
+    else:
+        q = (np.abs(du / w) ** power + np.abs(dv / dd) ** power
+             + np.abs(e / r) ** power) ** (1.0 / power)
+    return (q - 1.0) * r, t
+
+
+def _boxes(pr: Primitives, k: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds (P, 3) of each segment's reach: beyond them it adds nothing to the union."""
+    reach = np.maximum(pr.width.max(axis=1), pr.depth.max(axis=1)) + 4.0 * k
+    return (np.minimum(pr.a, pr.b) - reach[:, None], np.maximum(pr.a, pr.b) + reach[:, None])
+
+
+def _grid_field(pr: Primitives, k: float, voxel: float):
+    """``f`` on a grid padded around every segment: (values, origin)."""
+    lo_p, hi_p = _boxes(pr, k)
+    origin = lo_p.min(axis=0) - 2 * voxel
+    shape = np.ceil((hi_p.max(axis=0) + 2 * voxel - origin) / voxel).astype(int) + 1
+    S = np.zeros(tuple(shape))
+    i0 = np.clip(np.floor((lo_p - origin) / voxel).astype(int), 0, shape - 1)
+    i1 = np.clip(np.ceil((hi_p - origin) / voxel).astype(int) + 1, 0, shape)
+    for p in range(len(pr.a)):
+        ax = [origin[c] + voxel * np.arange(i0[p, c], i1[p, c]) for c in range(3)]
+        g = np.stack(np.meshgrid(*ax, indexing="ij"), axis=-1)
+        d, _ = field_distances(pr, p, g.reshape(-1, 3))
+        sl = tuple(slice(i0[p, c], i1[p, c]) for c in range(3))
+        S[sl] += np.exp(-d / k).reshape(g.shape[:3])
+    f = -k * np.log(np.maximum(S, 1e-30))
+    return np.minimum(f, 10.0 * k), origin
+
+
+# -------------------------------------------------------------------- surface
+def _edges(tri: np.ndarray) -> np.ndarray:
+    e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
+    e = np.sort(e, axis=1)
+    return np.unique(e, axis=0)
+
+
+def _smooth(v: np.ndarray, tri: np.ndarray, passes: int) -> np.ndarray:
+    """Taubin smoothing (a shrinking and an inflating Laplacian step per pass)."""
+    e = _edges(tri)
+    i = np.concatenate([e[:, 0], e[:, 1]])
+    j = np.concatenate([e[:, 1], e[:, 0]])
+    deg = np.maximum(np.bincount(i, minlength=len(v)), 1)[:, None]
+    for _ in range(passes):
+        for f in (SMOOTH_LAMBDA, SMOOTH_MU):
+            mean = np.stack([np.bincount(i, weights=v[j, c], minlength=len(v))
+                             for c in range(3)], axis=1) / deg
+            v = v + f * (mean - v)
+    return v
+
+
+def vertex_normals(v: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Area-weighted unit vertex normals (V, 3) of a triangle mesh."""
+    p = v[tri]
+    fn = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    n = np.zeros_like(v)
+    for c in range(3):
+        np.add.at(n, tri[:, c], fn)
+    return n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-20)
+
+
+def _surface(pr: Primitives, k: float, voxel: float) -> tuple[np.ndarray, np.ndarray]:
+    from skimage.measure import marching_cubes
+
+    f, origin = _grid_field(pr, k, voxel)
+    verts, tri, _, _ = marching_cubes(f, level=0.0, spacing=(voxel,) * 3,
+                                      allow_degenerate=False)
+    verts = verts + origin
+    tri = tri.astype(np.int64)
+    # outward: the enclosed volume is positive with counter-clockwise faces
+    p = verts[tri]
+    if np.einsum("ij,ij->i", p[:, 0], np.cross(p[:, 1], p[:, 2])).sum() < 0:
+        tri = tri[:, ::-1].copy()
+    return _smooth(verts, tri, SMOOTH_PASSES), tri
+
+
+# ----------------------------------------------------------------------- skin
+def _skin(pr: Primitives, v: np.ndarray, k: float):
+    """Joints, weights, colours and part of every vertex from the segments near it."""
+    V, P = len(v), len(pr.a)
+    d = np.full((V, P), np.inf)
+    t = np.zeros((V, P))
+    lo, hi = _boxes(pr, k)
+    for p in range(P):
+        near = np.nonzero(np.all((v >= lo[p]) & (v <= hi[p]), axis=1))[0]
+        if len(near):
+            d[near, p], t[near, p] = field_distances(pr, p, v[near])
+    gap = d - d.min(axis=1, keepdims=True)
+    kw = WEIGHT_SHARPNESS * k
+    soft = np.where(gap < 12.0 * kw, np.exp(-np.minimum(gap, 12.0 * kw) / kw), 0.0)
+    soft /= soft.sum(axis=1, keepdims=True)
+    W = (soft * (1.0 - t)) @ pr.weights[:, 0] + (soft * t) @ pr.weights[:, 1]
+    joints, weights = top_weights(W, 4)
+    kc = COLOR_SHARPNESS * k
+    sharp = np.where(gap < 12.0 * kc, np.exp(-np.minimum(gap, 12.0 * kc) / kc), 0.0)
+    rgb = sharp @ pr.rgb / sharp.sum(axis=1, keepdims=True)
+    part = pr.part[np.argmin(d, axis=1)]
+    return joints, weights, np.clip(rgb, 0.0, 1.0), part
+
+
+_CACHE: dict = {}
+
+
+def _fingerprint(skel: Skeleton) -> tuple:
+    ends = tuple(sorted((k, tuple(np.round(v, 6))) for k, v in skel.end_sites.items()))
+    return (skel.names, skel.parents.tobytes(), np.round(skel.offsets, 6).tobytes(), ends)
+
+
+def skinned_body(skeleton: Skeleton, profile: Profile | None = None) -> SkinnedBody:
+    """The skinned body of a quadruped skeleton (cached per skeleton and profile).
+
+    Parameters
+    ----------
+    skeleton : Skeleton
+    profile : Profile, optional
+        By default the shipped character's whose skeleton this is
+        (:func:`profile_for`), else :data:`~quadsim.mesh.profiles.DEFAULT_PROFILE`.
+
+    A skeleton that is not a quadruped's (see
+    :func:`quadsim.skeleton.anatomy.find_anatomy`) gets a round tube around
+    every bone, each moved rigidly by its parent joint.
+    """
+    if profile is None:
+        profile = profile_for(skeleton)
+    key = (_fingerprint(skeleton), profile)
+    hit = _CACHE.get(key)
+    if hit is not None:
+        return hit
+    try:
+        h = find_anatomy(skeleton).hip_height
+        pr = primitives(skeleton, profile, h)
+    except ValueError:                            # not a quadruped: a tube around each bone
+        P = skeleton.rest_positions
+        h = max(0.75 * float(np.ptp(P, axis=0).max()), 1e-3)
+        pr = bone_primitives(skeleton, TUBE * h, profile.color)
+    k = profile.blend * h
+    v, tri = _surface(pr, k, profile.voxel * h)
+    n = vertex_normals(v, tri)
+    joints, weights, rgb, part = _skin(pr, v, k)
+    arrays = (v, n, tri, joints, weights, rgb, part)
+    for a in arrays:
+        a.setflags(write=False)
+    body = SkinnedBody(*arrays, profile=profile.name)
+    if len(_CACHE) > 32:
+        _CACHE.clear()
+    _CACHE[key] = body
+    return body
+
+
+def profile_for(skeleton: Skeleton) -> Profile:
+    """The profile of the shipped character with this skeleton (up to scale), else the default."""
+    return profile_for_id(_character_id(skeleton))
+
+
+_IDS: dict = {}
+
+
+def _character_id(skeleton: Skeleton) -> str | None:
+    key = _fingerprint(skeleton)
+    if key in _IDS:
+        return _IDS[key]
+    from quadsim.skeleton.character import list_characters, load_character
+
+    found = None
+    mine = _shape(skeleton)
+    for cid in list_characters():
+        try:
+            other = _shape(load_character(cid).skeleton)
+        except Exception:                        # noqa: BLE001 -- a broken file is no match
+            continue
+        if other.keys() == mine.keys() and all(
+                np.allclose(mine[n], other[n], atol=1e-4) for n in mine):
+            found = cid
+            break
+    _IDS[key] = found
+    return found
+
+
+def _shape(skel: Skeleton) -> dict:
+    """Rest offsets by joint name, scaled to a unit total bone length."""
+    off = {n: skel.offsets[j] for j, n in enumerate(skel.names) if j > 0}
+    scale = max(sum(np.linalg.norm(v) for v in off.values()), 1e-9)
+    out = {n: v / scale for n, v in off.items()}
+    out[""] = np.array([len(skel.names), 0.0, 0.0])
+    return out

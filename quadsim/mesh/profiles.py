@@ -1,0 +1,339 @@
+"""Body profiles: the shape of each part of a quadruped, as data.
+
+A :class:`Profile` describes a body by its parts, each laid along a chain of
+the skeleton found by :func:`quadsim.skeleton.anatomy.find_anatomy`:
+
+========== =================================== ===============================
+part       t = 0                               t = 1
+========== =================================== ===============================
+trunk      pelvis                              withers (beyond: level, forward)
+neck       withers                             head joint
+head       head joint                          the head's end site (muzzle)
+fore_leg   top joint of each fore leg          fore foot joint
+hind_leg   top joint of each hind leg          hind foot joint
+fore_foot  fore foot joint                     its toe tip (end site)
+hind_foot  hind foot joint                     its toe tip
+tail       first tail joint                    tail tip (beyond: along its end)
+========== =================================== ===============================
+
+``t`` runs by arc length along the chain and may leave [0, 1]: the chain is
+then extended straight (the trunk level and forward or back, the others along
+their end bones). Along a part, cross-sections (:class:`Section`) give the
+half-width (across the body, +X), the half-depth (in the plane of the body,
+perpendicular to the chain: up for the trunk, neck and head, fore-aft for the
+legs) and a *lift* of the section's centre off the chain along that second
+axis. All lengths are fractions of the hip height, so one profile fits an
+animal of any size. :class:`Blob` adds small pieces (ears, a nose) fixed to a
+part. Parts and blobs carry a tone (a multiple of the body colour) or their
+own colour, and a cross-section exponent (2: ellipses; higher: boxier, as for
+hooves).
+
+:data:`PROFILES` holds the shipped characters' profiles by character id;
+:data:`DEFAULT_PROFILE` is a generic medium quadruped that fits any skeleton.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = ["BODY_COLORS", "DEFAULT_COLOR", "DEFAULT_PROFILE", "PARTS", "PROFILES", "Blob",
+           "Part", "Profile", "Section", "profile_for_id"]
+
+#: Names of the chains a part can follow.
+PARTS = ("trunk", "neck", "head", "fore_leg", "hind_leg", "fore_foot", "hind_foot", "tail")
+
+#: Body colour (RGB in [0, 1]) by character id.
+BODY_COLORS = {
+    "leopard": (0.86, 0.64, 0.30),
+    "leopard_cub": (0.90, 0.74, 0.45),
+    "dog_cub": (0.62, 0.44, 0.28),
+    "horse": (0.50, 0.30, 0.18),
+}
+DEFAULT_COLOR = (0.70, 0.66, 0.60)
+
+
+@dataclass(frozen=True)
+class Section:
+    """One cross-section of a part (lengths in hip heights).
+
+    Attributes
+    ----------
+    t : float
+        Position along the part's chain (0 at its start, 1 at its end).
+    width, depth : float
+        Half-width across the body and half-depth in the body's plane.
+    lift : float
+        Offset of the section's centre from the chain along the depth axis
+        (up for trunk, neck and head; forward for legs and feet).
+    """
+
+    t: float
+    width: float
+    depth: float
+    lift: float = 0.0
+
+
+@dataclass(frozen=True)
+class Part:
+    """A smooth tube along one chain: its sections, tone and section exponent.
+
+    Attributes
+    ----------
+    chain : str
+        One of :data:`PARTS`.
+    sections : tuple of Section
+        In increasing ``t``; radii are interpolated linearly between them.
+    tone : float
+        Multiplies the body colour.
+    rgb : tuple of float, optional
+        A colour of its own instead (hooves, a mane).
+    power : float
+        Cross-section exponent: 2 for ellipses, 3-4 for rounded boxes.
+    """
+
+    chain: str
+    sections: tuple[Section, ...]
+    tone: float = 1.0
+    rgb: tuple[float, float, float] | None = None
+    power: float = 2.0
+
+
+@dataclass(frozen=True)
+class Blob:
+    """A short tapered piece fixed to a part at ``t``, e.g. an ear.
+
+    Its ends are offsets ``(across, depth axis, along the chain)`` in hip
+    heights in the part's frame at ``t``; ``mirror`` adds the copy on the
+    other side (``across`` negated).
+    """
+
+    chain: str
+    t: float
+    start: tuple[float, float, float]
+    end: tuple[float, float, float]
+    radius_start: tuple[float, float]
+    radius_end: tuple[float, float]
+    mirror: bool = True
+    tone: float = 1.0
+    rgb: tuple[float, float, float] | None = None
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A whole body: parts, blobs, colour, the blend radius and the grid step.
+
+    Attributes
+    ----------
+    parts : tuple of Part
+    blobs : tuple of Blob
+    color : tuple of float
+        Body colour, RGB in [0, 1].
+    blend : float
+        Radius over which parts melt into each other (hip heights).
+    voxel : float
+        Grid step of the surface (hip heights): sets the triangle count.
+    """
+
+    parts: tuple[Part, ...]
+    blobs: tuple[Blob, ...] = ()
+    color: tuple[float, float, float] = DEFAULT_COLOR
+    blend: float = 0.035
+    voxel: float = 0.03
+    name: str = field(default="default")
+
+
+def _s(*rows) -> tuple[Section, ...]:
+    return tuple(Section(*r) for r in rows)
+
+
+HOOF_RGB = (0.16, 0.14, 0.13)
+NOSE_RGB = (0.12, 0.10, 0.10)
+
+# -------------------------------------------------------------------- horse
+_HORSE = Profile(
+    name="horse",
+    color=BODY_COLORS["horse"],
+    blend=0.03,
+    voxel=0.03,
+    parts=(
+        # barrel: deep through the girth, a tucked flank, a high croup and a breast
+        Part("trunk", _s((-0.55, 0.13, 0.17, -0.20), (-0.35, 0.18, 0.23, -0.20),
+                         (-0.1, 0.20, 0.25, -0.21), (0.25, 0.20, 0.22, -0.20),
+                         (0.6, 0.22, 0.25, -0.23), (0.9, 0.19, 0.25, -0.25),
+                         (1.15, 0.15, 0.22, -0.30), (1.35, 0.11, 0.14, -0.34))),
+        # a deep, flat-sided neck, deepest at its base, the crest above the vertebrae
+        Part("neck", _s((0.0, 0.09, 0.22, -0.06), (0.3, 0.085, 0.19, 0.0),
+                        (0.65, 0.07, 0.14, 0.03), (1.0, 0.055, 0.10, 0.0))),
+        Part("neck", _s((0.05, 0.025, 0.05, 0.19), (0.4, 0.025, 0.05, 0.18),
+                        (0.8, 0.022, 0.04, 0.13), (1.02, 0.02, 0.03, 0.08)),
+             rgb=(0.16, 0.10, 0.07)),
+        # a long wedge: wide jowls behind, a narrow face, a muzzle
+        Part("head", _s((0.0, 0.06, 0.08, -0.04), (0.18, 0.08, 0.11, -0.075),
+                        (0.45, 0.06, 0.08, -0.04), (0.8, 0.045, 0.06, -0.035),
+                        (1.0, 0.045, 0.055, -0.04))),
+        Part("fore_leg", _s((0.0, 0.09, 0.12), (0.26, 0.07, 0.10), (0.45, 0.048, 0.06),
+                            (0.59, 0.04, 0.045), (0.7, 0.028, 0.035), (0.83, 0.034, 0.04),
+                            (0.91, 0.028, 0.032), (1.0, 0.034, 0.036))),
+        Part("hind_leg", _s((0.0, 0.15, 0.19, -0.05), (0.27, 0.10, 0.15, -0.02),
+                            (0.42, 0.055, 0.085, -0.02), (0.58, 0.035, 0.06, -0.01),
+                            (0.7, 0.028, 0.036), (0.84, 0.034, 0.04),
+                            (0.92, 0.028, 0.032), (1.0, 0.034, 0.036))),
+        # hooves: rounded boxes standing on the ground, wider at the sole
+        Part("fore_foot", _s((-0.9, 0.036, 0.03, 0.035), (-0.2, 0.046, 0.04, 0.04),
+                             (0.6, 0.044, 0.038, 0.036), (1.0, 0.034, 0.028, 0.028)),
+             rgb=HOOF_RGB, power=3.0),
+        Part("hind_foot", _s((-0.9, 0.036, 0.03, 0.035), (-0.2, 0.046, 0.04, 0.04),
+                             (0.6, 0.044, 0.038, 0.036), (1.0, 0.034, 0.028, 0.028)),
+             rgb=HOOF_RGB, power=3.0),
+        # the dock, then the hair hanging to the hocks
+        Part("tail", _s((0.0, 0.05, 0.055), (1.0, 0.045, 0.05), (1.8, 0.05, 0.06),
+                        (3.2, 0.03, 0.035)), rgb=(0.16, 0.10, 0.07)),
+    ),
+    blobs=(
+        Blob("head", 0.03, (0.035, 0.02, -0.01), (0.045, 0.085, -0.10), (0.022, 0.03),
+             (0.006, 0.01)),
+        Blob("head", 0.98, (0.0, -0.03, 0.0), (0.0, -0.03, 0.02), (0.04, 0.035),
+             (0.035, 0.03), mirror=False, tone=0.7),
+    ),
+)
+
+# ------------------------------------------------------------------ leopard
+_CAT_TRUNK = _s((-0.15, 0.11, 0.13, -0.10), (0.0, 0.14, 0.16, -0.13), (0.3, 0.12, 0.15, -0.13),
+                (0.6, 0.15, 0.21, -0.19), (0.85, 0.16, 0.24, -0.22), (1.02, 0.15, 0.22, -0.21),
+                (1.15, 0.10, 0.15, -0.19))
+
+_LEOPARD = Profile(
+    name="leopard",
+    color=BODY_COLORS["leopard"],
+    blend=0.035,
+    voxel=0.032,
+    parts=(
+        Part("trunk", _CAT_TRUNK),
+        Part("neck", _s((0.0, 0.13, 0.19, -0.10), (0.5, 0.12, 0.14, -0.05),
+                        (1.0, 0.11, 0.12, -0.03))),
+        Part("head", _s((-0.1, 0.10, 0.10, 0.0), (0.3, 0.125, 0.11, 0.0),
+                        (0.7, 0.08, 0.07, -0.02), (1.0, 0.055, 0.05, -0.03))),
+        Part("fore_leg", _s((0.0, 0.06, 0.08), (0.24, 0.085, 0.12), (0.5, 0.07, 0.085),
+                            (0.72, 0.055, 0.06), (0.88, 0.042, 0.047), (1.0, 0.045, 0.045))),
+        Part("hind_leg", _s((0.0, 0.12, 0.16, -0.02), (0.33, 0.08, 0.11), (0.5, 0.06, 0.075),
+                            (0.75, 0.036, 0.048), (1.0, 0.04, 0.042))),
+        Part("fore_foot", _s((-0.6, 0.05, 0.045, 0.045), (0.4, 0.075, 0.05, 0.05),
+                             (1.2, 0.06, 0.035, 0.035))),
+        Part("hind_foot", _s((-0.6, 0.045, 0.042, 0.042), (0.4, 0.065, 0.045, 0.045),
+                             (1.2, 0.055, 0.032, 0.032))),
+        # long and thick to the tip
+        Part("tail", _s((-0.3, 0.07, 0.07), (0.0, 0.065, 0.065), (0.3, 0.05, 0.05),
+                        (1.0, 0.04, 0.04))),
+    ),
+    blobs=(
+        Blob("head", 0.12, (0.075, 0.07, -0.01), (0.085, 0.13, -0.03), (0.035, 0.025),
+             (0.02, 0.012)),
+        Blob("head", 1.0, (0.0, 0.0, -0.01), (0.0, 0.0, 0.01), (0.025, 0.02),
+             (0.02, 0.015), mirror=False, rgb=NOSE_RGB),
+    ),
+)
+
+# --------------------------------------------------------------- leopard cub
+_LEOPARD_CUB = Profile(
+    name="leopard_cub",
+    color=BODY_COLORS["leopard_cub"],
+    blend=0.04,
+    voxel=0.036,
+    parts=(
+        # a round belly, less waist than the adult
+        Part("trunk", _s((-0.15, 0.12, 0.13, -0.09), (0.0, 0.15, 0.17, -0.13),
+                         (0.4, 0.16, 0.20, -0.16), (0.75, 0.17, 0.23, -0.19),
+                         (1.02, 0.15, 0.21, -0.19), (1.15, 0.11, 0.15, -0.17))),
+        Part("neck", _s((0.0, 0.14, 0.19, -0.08), (0.5, 0.13, 0.15, -0.04),
+                        (1.0, 0.13, 0.14, -0.02))),
+        # a big round head, a short muzzle
+        Part("head", _s((-0.25, 0.15, 0.15, 0.03), (0.25, 0.19, 0.17, 0.03),
+                        (0.7, 0.12, 0.10, -0.02), (1.0, 0.085, 0.07, -0.03))),
+        Part("fore_leg", _s((0.0, 0.07, 0.09), (0.24, 0.09, 0.12), (0.5, 0.075, 0.09),
+                            (0.72, 0.062, 0.066), (0.88, 0.055, 0.058), (1.0, 0.06, 0.06))),
+        Part("hind_leg", _s((0.0, 0.13, 0.16), (0.33, 0.09, 0.11), (0.5, 0.07, 0.08),
+                            (0.75, 0.05, 0.055), (1.0, 0.055, 0.055))),
+        # big paws
+        Part("fore_foot", _s((-0.6, 0.07, 0.06, 0.06), (0.4, 0.10, 0.07, 0.07),
+                             (1.2, 0.08, 0.05, 0.05))),
+        Part("hind_foot", _s((-0.6, 0.065, 0.055, 0.055), (0.4, 0.09, 0.065, 0.065),
+                             (1.2, 0.075, 0.045, 0.045))),
+        Part("tail", _s((-0.3, 0.065, 0.065), (0.0, 0.06, 0.06), (1.0, 0.04, 0.04))),
+    ),
+    blobs=(
+        Blob("head", 0.1, (0.11, 0.10, -0.02), (0.13, 0.19, -0.04), (0.055, 0.035),
+             (0.035, 0.02)),
+        Blob("head", 1.0, (0.0, 0.0, -0.01), (0.0, 0.0, 0.01), (0.035, 0.028),
+             (0.03, 0.022), mirror=False, rgb=NOSE_RGB),
+    ),
+)
+
+# ------------------------------------------------------------------ dog cub
+_DOG_CUB = Profile(
+    name="dog_cub",
+    color=BODY_COLORS["dog_cub"],
+    blend=0.04,
+    voxel=0.036,
+    parts=(
+        Part("trunk", _s((-0.15, 0.13, 0.14, -0.10), (0.0, 0.16, 0.18, -0.14),
+                         (0.35, 0.15, 0.19, -0.16), (0.7, 0.17, 0.24, -0.21),
+                         (1.0, 0.16, 0.23, -0.21), (1.2, 0.11, 0.15, -0.18))),
+        Part("neck", _s((0.0, 0.13, 0.19, -0.08), (0.5, 0.12, 0.14, -0.04),
+                        (1.0, 0.12, 0.13, -0.02))),
+        # a round skull with a stop, then a box-like muzzle
+        Part("head", _s((-0.2, 0.15, 0.15, 0.04), (0.25, 0.17, 0.16, 0.04),
+                        (0.5, 0.11, 0.10, -0.02), (0.75, 0.085, 0.075, -0.04),
+                        (1.0, 0.075, 0.065, -0.05))),
+        Part("fore_leg", _s((0.0, 0.07, 0.09), (0.24, 0.09, 0.12), (0.5, 0.07, 0.08),
+                            (0.75, 0.055, 0.06), (0.9, 0.05, 0.055), (1.0, 0.055, 0.055))),
+        Part("hind_leg", _s((0.0, 0.13, 0.17), (0.33, 0.09, 0.11), (0.5, 0.065, 0.08),
+                            (0.75, 0.045, 0.055), (1.0, 0.05, 0.05))),
+        Part("fore_foot", _s((-0.5, 0.06, 0.05, 0.05), (0.4, 0.085, 0.06, 0.06),
+                             (1.2, 0.07, 0.045, 0.045))),
+        Part("hind_foot", _s((-0.5, 0.055, 0.05, 0.05), (0.4, 0.08, 0.055, 0.055),
+                             (1.2, 0.065, 0.04, 0.04))),
+        Part("tail", _s((-0.2, 0.06, 0.06), (0.0, 0.055, 0.055), (1.0, 0.025, 0.025))),
+    ),
+    blobs=(
+        # floppy ears hanging at the sides of the skull
+        Blob("head", 0.15, (0.13, 0.12, -0.02), (0.17, -0.06, 0.02), (0.03, 0.07),
+             (0.025, 0.06), tone=0.8),
+        Blob("head", 1.0, (0.0, 0.0, -0.01), (0.0, 0.0, 0.02), (0.04, 0.035),
+             (0.035, 0.03), mirror=False, rgb=NOSE_RGB),
+    ),
+)
+
+# ------------------------------------------------------------------ default
+DEFAULT_PROFILE = Profile(
+    name="default",
+    parts=(
+        Part("trunk", _s((-0.15, 0.12, 0.13, -0.10), (0.0, 0.15, 0.17, -0.13),
+                         (0.35, 0.14, 0.17, -0.15), (0.7, 0.16, 0.22, -0.19),
+                         (1.0, 0.15, 0.21, -0.19), (1.15, 0.10, 0.14, -0.17))),
+        Part("neck", _s((0.0, 0.12, 0.17, -0.08), (0.5, 0.11, 0.13, -0.04),
+                        (1.0, 0.10, 0.11, -0.02))),
+        Part("head", _s((-0.1, 0.11, 0.11, 0.02), (0.3, 0.12, 0.11, 0.02),
+                        (0.7, 0.08, 0.07, -0.02), (1.0, 0.06, 0.055, -0.03))),
+        Part("fore_leg", _s((0.0, 0.06, 0.08), (0.25, 0.08, 0.11), (0.5, 0.06, 0.075),
+                            (0.8, 0.045, 0.05), (1.0, 0.045, 0.045))),
+        Part("hind_leg", _s((0.0, 0.11, 0.15), (0.33, 0.075, 0.10), (0.5, 0.055, 0.07),
+                            (0.8, 0.04, 0.045), (1.0, 0.042, 0.042))),
+        Part("fore_foot", _s((-0.5, 0.045, 0.04, 0.04), (0.4, 0.065, 0.045, 0.045),
+                             (1.1, 0.055, 0.035, 0.035))),
+        Part("hind_foot", _s((-0.5, 0.045, 0.04, 0.04), (0.4, 0.06, 0.045, 0.045),
+                             (1.1, 0.05, 0.035, 0.035))),
+        Part("tail", _s((-0.2, 0.05, 0.05), (0.0, 0.045, 0.045), (1.0, 0.025, 0.025))),
+    ),
+    blobs=(
+        Blob("head", 0.15, (0.07, 0.07, -0.01), (0.08, 0.14, -0.03), (0.035, 0.025),
+             (0.015, 0.01)),
+    ),
+)
+
+#: Profiles of the shipped characters by character id.
+PROFILES = {p.name: p for p in (_HORSE, _LEOPARD, _LEOPARD_CUB, _DOG_CUB)}
+
+
+def profile_for_id(character_id: str | None) -> Profile:
+    """The profile of a character id, :data:`DEFAULT_PROFILE` for any other."""
+    return PROFILES.get(character_id or "", DEFAULT_PROFILE)
