@@ -6,10 +6,12 @@
    along the skeleton's chains as short tapered segments with elliptic or
    boxy sections (:func:`quadsim.mesh.parts.primitives`).
 2. **Implicit surface.** Each segment has an approximate signed distance
-   ``d_i`` (negative inside); the body is the zero set of their smooth union
-   ``f = -k log(sum_i exp(-d_i / k))`` with the profile's blend radius ``k``,
-   so parts melt into each other over about ``k``. ``f`` is sampled on a grid
-   of the profile's voxel size, each segment only over its own box.
+   (negative inside); a tube (a part along one chain, or a blob) is the plain
+   union of its segments, ``d_i`` the least of their distances; the body is
+   the zero set of the tubes' smooth union ``f = -k log(sum_i exp(-d_i / k))``
+   with the profile's blend radius ``k``, so parts melt into each other over
+   about ``k``. ``f`` is sampled on a grid of the profile's voxel size, each
+   segment only over its own box.
 3. **Surface.** scikit-image's ``marching_cubes`` meshes ``f = 0``; a few
    Taubin smoothing passes (which keep the volume) remove the grid's steps,
    and normals come from the smoothed faces.
@@ -137,19 +139,29 @@ def _boxes(pr: Primitives, k: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _grid_field(pr: Primitives, k: float, voxel: float):
-    """``f`` on a grid padded around every segment: (values, origin)."""
+    """``f`` on a grid padded around every segment: (values, origin).
+
+    Within a tube (a :attr:`Primitives.group`) the distance is the least of its
+    segments'; the tubes are then melted together.
+    """
     lo_p, hi_p = _boxes(pr, k)
     origin = lo_p.min(axis=0) - 2 * voxel
     shape = np.ceil((hi_p.max(axis=0) + 2 * voxel - origin) / voxel).astype(int) + 1
     S = np.zeros(tuple(shape))
     i0 = np.clip(np.floor((lo_p - origin) / voxel).astype(int), 0, shape - 1)
     i1 = np.clip(np.ceil((hi_p - origin) / voxel).astype(int) + 1, 0, shape)
-    for p in range(len(pr.a)):
-        ax = [origin[c] + voxel * np.arange(i0[p, c], i1[p, c]) for c in range(3)]
-        g = np.stack(np.meshgrid(*ax, indexing="ij"), axis=-1)
-        d, _ = field_distances(pr, p, g.reshape(-1, 3))
-        sl = tuple(slice(i0[p, c], i1[p, c]) for c in range(3))
-        S[sl] += np.exp(-d / k).reshape(g.shape[:3])
+    for g in np.unique(pr.group):
+        members = np.nonzero(pr.group == g)[0]
+        g0, g1 = i0[members].min(axis=0), i1[members].max(axis=0)
+        D = np.full(tuple(g1 - g0), np.inf)
+        for p in members:
+            ax = [origin[c] + voxel * np.arange(i0[p, c], i1[p, c]) for c in range(3)]
+            pts = np.stack(np.meshgrid(*ax, indexing="ij"), axis=-1)
+            d, _ = field_distances(pr, p, pts.reshape(-1, 3))
+            sl = tuple(slice(i0[p, c] - g0[c], i1[p, c] - g0[c]) for c in range(3))
+            np.minimum(D[sl], d.reshape(pts.shape[:3]), out=D[sl])
+        sl = tuple(slice(g0[c], g1[c]) for c in range(3))
+        S[sl] += np.exp(-np.minimum(D, 40.0 * k) / k)
     f = -k * np.log(np.maximum(S, 1e-30))
     return np.minimum(f, 10.0 * k), origin
 
@@ -157,8 +169,9 @@ def _grid_field(pr: Primitives, k: float, voxel: float):
 # -------------------------------------------------------------------- surface
 def _edges(tri: np.ndarray) -> np.ndarray:
     e = np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]])
-    e = np.sort(e, axis=1)
-    return np.unique(e, axis=0)
+    lo, hi = e.min(axis=1), e.max(axis=1)
+    key = np.unique(lo * (int(tri.max()) + 1) + hi)
+    return np.stack([key // (int(tri.max()) + 1), key % (int(tri.max()) + 1)], axis=1)
 
 
 def _smooth(v: np.ndarray, tri: np.ndarray, passes: int) -> np.ndarray:
@@ -224,6 +237,34 @@ def _skin(pr: Primitives, v: np.ndarray, k: float):
     return joints, weights, np.clip(rgb, 0.0, 1.0), part
 
 
+def _coat(profile: Profile, v, n, part, rgb, h: float) -> np.ndarray:
+    """A lighter underside and dark spots, as the profile asks (colours (V, 3))."""
+    from quadsim.frames import Y
+    from quadsim.mesh.profiles import PARTS
+
+    rgb = np.array(rgb)
+    body = np.isin(part, [PARTS.index(c) for c in ("trunk", "neck", "head")])
+    if profile.belly > 0:
+        under = np.clip(-n[:, Y], 0.0, 1.0) * body * profile.belly
+        rgb += under[:, None] * (np.asarray(profile.belly_rgb) - rgb)
+    sp = profile.spots
+    if sp is not None:
+        coat = np.nonzero(np.isin(part, [PARTS.index(c) for c in
+                                         ("trunk", "neck", "fore_leg", "hind_leg", "tail")]))[0]
+        rng = np.random.default_rng(sp.seed)
+        count = max(1, int(sp.share * len(coat)))
+        centres = v[rng.choice(coat, size=min(count, len(coat)), replace=False)]
+        r = sp.radius * h
+        near = np.full(len(v), np.inf)
+        for c in np.array_split(centres, max(1, len(centres) // 64)):
+            d = np.linalg.norm(v[coat, None, :] - c[None], axis=-1).min(axis=1)
+            near[coat] = np.minimum(near[coat], d)
+        x = np.clip(1.0 - near / r, 0.0, 1.0)
+        dark = sp.darkness * np.minimum(1.0, 2.5 * x)
+        rgb *= (1.0 - dark)[:, None]
+    return np.clip(rgb, 0.0, 1.0)
+
+
 _CACHE: dict = {}
 
 
@@ -263,6 +304,7 @@ def skinned_body(skeleton: Skeleton, profile: Profile | None = None) -> SkinnedB
     v, tri = _surface(pr, k, profile.voxel * h)
     n = vertex_normals(v, tri)
     joints, weights, rgb, part = _skin(pr, v, k)
+    rgb = _coat(profile, v, n, part, rgb, h)
     arrays = (v, n, tri, joints, weights, rgb, part)
     for a in arrays:
         a.setflags(write=False)

@@ -33,7 +33,7 @@ __all__ = ["Chain", "Primitives", "bone_primitives", "chains", "primitives"]
 #: one bone's owner to the next (smoothstep; 1/2 each at the joint).
 HANDOVER = 0.6
 #: Longest segment a part is cut into (hip heights).
-SEGMENT = 0.05
+SEGMENT = 0.1
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,9 @@ class Primitives(NamedTuple):
     across, up : (P, 3) unit section axes; length : (P,) (m);
     width, depth : (P, 2) half-sizes at a and b (m); power : (P,);
     rgb : (P, 3); weights : (P, 2, J) joint weights at a and b;
-    part : (P,) index of the part's chain in :data:`~quadsim.mesh.profiles.PARTS`.
+    part : (P,) index of the part's chain in :data:`~quadsim.mesh.profiles.PARTS`;
+    group : (P,) one number per tube (a part along one chain, or one blob): a
+    tube is the plain union of its segments, tubes melt into each other.
     """
 
     a: np.ndarray
@@ -82,6 +84,7 @@ class Primitives(NamedTuple):
     rgb: np.ndarray
     weights: np.ndarray
     part: np.ndarray
+    group: np.ndarray
 
 
 def _tail_chain(skel: Skeleton, anat, kids) -> list[int]:
@@ -272,9 +275,11 @@ def _part_rows(part: Part, chain: Chain, h: float, base_rgb, n_joints: int) -> l
     pos, coord = _along(chain, t)
     tan = _tangents(chain, t, h)
     across, up = _frames(tan)
-    width = np.interp(t, ts, [x.width for x in sec]) * h
-    depth = np.interp(t, ts, [x.depth for x in sec]) * h
+    width = (np.interp(t, ts, [x.width for x in sec]) + part.grow) * h
+    depth = (np.interp(t, ts, [x.depth for x in sec]) + part.grow) * h
     lift = np.interp(t, ts, [x.lift for x in sec]) * h
+    if part.chain.endswith("_foot"):                 # feet keep their soles on the ground
+        lift = lift + part.grow * h
     centre = pos + lift[:, None] * up
     W = _weights(chain, coord, n_joints)
     rgb = np.asarray(part.rgb if part.rgb is not None else np.asarray(base_rgb) * part.tone)
@@ -310,12 +315,16 @@ def primitives(skel: Skeleton, profile: Profile, h: float) -> Primitives:
     ch = chains(skel, h)
     J = skel.n_joints
     rows = []
+    group = 0
     for part in profile.parts:
         for chain in ch.get(part.chain, []):
-            rows += _part_rows(part, chain, h, profile.color, J)
+            rows += [r + (group,) for r in _part_rows(part, chain, h, profile.color, J)]
+            group += 1
     for blob in profile.blobs:
         for chain in ch.get(blob.chain, []):
-            rows += _blob_rows(blob, chain, h, profile.color, J)
+            for r in _blob_rows(blob, chain, h, profile.color, J):
+                rows.append(r + (group,))
+                group += 1
     return _pack(rows)
 
 
@@ -332,7 +341,8 @@ def _pack(rows: list) -> Primitives:
                       np.array([r[4] for r in rows], dtype=float),
                       np.array([r[5] for r in rows], dtype=float),
                       np.array([r[6] for r in rows]),
-                      np.array([r[7] for r in rows], dtype=np.int64))
+                      np.array([r[7] for r in rows], dtype=np.int64),
+                      np.array([r[8] for r in rows], dtype=np.int64))
 
 
 def bone_primitives(skel: Skeleton, radius: float, rgb) -> Primitives:
@@ -350,10 +360,10 @@ def bone_primitives(skel: Skeleton, radius: float, rgb) -> Primitives:
         W = np.zeros((2, J))
         W[:, owner] = 1.0
         rows.append((P[owner], end, (radius, radius), (radius, radius), 2.0,
-                     np.asarray(rgb, dtype=float), W, PARTS.index("trunk")))
+                     np.asarray(rgb, dtype=float), W, PARTS.index("trunk"), len(rows)))
     if not rows:
         W = np.zeros((2, J))
         W[:, 0] = 1.0
         rows.append((P[0], P[0], (radius, radius), (radius, radius), 2.0,
-                     np.asarray(rgb, dtype=float), W, PARTS.index("trunk")))
+                     np.asarray(rgb, dtype=float), W, PARTS.index("trunk"), 0))
     return _pack(rows)
