@@ -129,19 +129,21 @@ def test_the_horse_neck_is_deep_and_flat_sided_the_cats_round(bodies):
     assert dl < 1.4 * wl
 
 
-def test_the_chest_is_deeper_than_the_waist(bodies):
-    for cid in ("horse", "leopard", "dog_cub"):
-        b, skel = bodies[cid], load_character(cid).skeleton
-        a = find_anatomy(skel)
-        P = skel.rest_positions
-        z0, z1 = P[a.pelvis, Z], P[a.withers, Z]
-        trunk = b.positions[b.part == PARTS.index("trunk")]
+def trunk_depth(b, skel, f: float) -> float:
+    """Depth (m) of the trunk in its mid-plane at fraction f from the pelvis to the withers."""
+    a = find_anatomy(skel)
+    P = skel.rest_positions
+    z0, z1 = P[a.pelvis, Z], P[a.withers, Z]
+    v = b.positions[b.part == PARTS.index("trunk")]
+    band = (np.abs(v[:, X]) < 0.04 * a.hip_height) & (
+        np.abs(v[:, Z] - (z0 + f * (z1 - z0))) < 0.04 * abs(z1 - z0))
+    return float(np.ptp(v[band, Y]))
 
-        def depth(f):
-            z = z0 + f * (z1 - z0)
-            ring = trunk[np.abs(trunk[:, Z] - z) < 0.03 * (z1 - z0) + 1e-3]
-            return np.ptp(ring[:, Y])
-        assert depth(0.85) > 1.12 * depth(0.3), cid
+
+def test_the_chest_is_deeper_than_the_waist(bodies):
+    for cid in ("horse", "leopard", "leopard_cub", "dog_cub"):
+        skel = load_character(cid).skeleton
+        assert trunk_depth(bodies[cid], skel, 0.7) > 1.12 * trunk_depth(bodies[cid], skel, 0.3)
 
 
 def test_a_leopard_has_spots_and_a_thick_tail_the_horse_dark_hooves(bodies):

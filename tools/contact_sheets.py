@@ -28,7 +28,7 @@ SETTLE = 2.0
 #: Phases shown per stride, and per row of the sheet.
 PHASES, PER_ROW = 8, 4
 #: Colours in the optimised PNG palette.
-PALETTE = 96
+PALETTE = 64
 
 
 def stride_frames(contacts: np.ndarray, fps: float, phases: int = PHASES) -> np.ndarray:
@@ -78,7 +78,7 @@ def sheet(cid: str, gait: str, size=(240, 180)) -> tuple[np.ndarray, float]:
     labelled = [_label(img, f"{(i - idx[0]) / stride:.2f}") for i, img in zip(idx, picked)]
     rows = [np.concatenate(labelled[r:r + PER_ROW], axis=1)
             for r in range(0, len(labelled), PER_ROW)]
-    return _label(np.concatenate(rows, axis=0), f"{ch.name}: {gait} at {speed:.1f} m/s",
+    return _label(np.concatenate(rows, axis=0), f"{ch.name}: {gait.replace('_', ' ')}, {speed:.1f} m/s",
                   at=(6, 4)), speed
 
 

@@ -332,10 +332,7 @@ def _character_id(skeleton: Skeleton) -> str | None:
     found = None
     mine = _shape(skeleton)
     for cid in list_characters():
-        try:
-            other = _shape(load_character(cid).skeleton)
-        except Exception:                        # noqa: BLE001 -- a broken file is no match
-            continue
+        other = _shape(load_character(cid).skeleton)
         if other.keys() == mine.keys() and all(
                 np.allclose(mine[n], other[n], atol=1e-4) for n in mine):
             found = cid

@@ -274,7 +274,7 @@ def _part_rows(part: Part, chain: Chain, h: float, base_rgb, n_joints: int) -> l
     t = np.unique(np.concatenate([t, ts]))
     pos, coord = _along(chain, t)
     tan = _tangents(chain, t, h)
-    across, up = _frames(tan)
+    _, up = _frames(tan)
     width = (np.interp(t, ts, [x.width for x in sec]) + part.grow) * h
     depth = (np.interp(t, ts, [x.depth for x in sec]) + part.grow) * h
     lift = np.interp(t, ts, [x.lift for x in sec]) * h
