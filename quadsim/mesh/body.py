@@ -237,7 +237,7 @@ def _skin(pr: Primitives, v: np.ndarray, k: float):
     return joints, weights, np.clip(rgb, 0.0, 1.0), part
 
 
-def _coat(profile: Profile, v, n, part, rgb, h: float) -> np.ndarray:
+def _coat(profile: Profile, v, n, tri, part, rgb, h: float) -> np.ndarray:
     """A lighter underside and dark spots, as the profile asks (colours (V, 3))."""
     from quadsim.frames import Y
     from quadsim.mesh.profiles import PARTS
@@ -249,10 +249,13 @@ def _coat(profile: Profile, v, n, part, rgb, h: float) -> np.ndarray:
         rgb += under[:, None] * (np.asarray(profile.belly_rgb) - rgb)
     sp = profile.spots
     if sp is not None:
-        coat = np.nonzero(np.isin(part, [PARTS.index(c) for c in
-                                         ("trunk", "neck", "fore_leg", "hind_leg", "tail")]))[0]
+        on = np.isin(part, [PARTS.index(c) for c in
+                            ("trunk", "neck", "fore_leg", "hind_leg", "tail")])
+        coat = np.nonzero(on)[0]
+        p = v[tri[on[tri].all(axis=1)]]
+        area = 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1).sum()
         rng = np.random.default_rng(sp.seed)
-        count = max(1, int(sp.share * len(coat)))
+        count = max(1, round(float(sp.density * area) / h ** 2))
         centres = v[rng.choice(coat, size=min(count, len(coat)), replace=False)]
         r = sp.radius * h
         near = np.full(len(v), np.inf)
@@ -304,7 +307,7 @@ def skinned_body(skeleton: Skeleton, profile: Profile | None = None) -> SkinnedB
     v, tri = _surface(pr, k, profile.voxel * h)
     n = vertex_normals(v, tri)
     joints, weights, rgb, part = _skin(pr, v, k)
-    rgb = _coat(profile, v, n, part, rgb, h)
+    rgb = _coat(profile, v, n, tri, part, rgb, h)
     arrays = (v, n, tri, joints, weights, rgb, part)
     for a in arrays:
         a.setflags(write=False)

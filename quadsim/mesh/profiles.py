@@ -127,8 +127,8 @@ class Spots:
 
     Attributes
     ----------
-    share : float
-        Spot centres per vertex of the body (trunk, neck, legs and tail).
+    density : float
+        Spots per square hip height of the coat (trunk, neck, legs and tail).
     radius : float
         Spot radius (hip heights).
     darkness : float
@@ -137,7 +137,7 @@ class Spots:
         Places the spots (the same seed, the same coat).
     """
 
-    share: float
+    density: float
     radius: float
     darkness: float = 0.7
     seed: int = 7
@@ -170,7 +170,7 @@ class Profile:
     blobs: tuple[Blob, ...] = ()
     color: tuple[float, float, float] = DEFAULT_COLOR
     blend: float = 0.035
-    voxel: float = 0.03
+    voxel: float = 0.036
     name: str = field(default="default")
     belly: float = 0.0
     belly_rgb: tuple[float, float, float] = (0.93, 0.88, 0.78)
@@ -190,7 +190,7 @@ _HORSE = Profile(
     name="horse",
     color=BODY_COLORS["horse"],
     blend=0.03,
-    voxel=0.026,
+    voxel=0.031,
     parts=(
         # barrel: deep through the girth, a tucked flank, a high croup and a breast
         Part("trunk", _s((-0.55, 0.13, 0.17, -0.20), (-0.35, 0.18, 0.23, -0.20),
@@ -231,8 +231,8 @@ _HORSE = Profile(
                         (3.2, 0.03, 0.035)), rgb=POINTS_RGB, grow=0.01),
     ),
     blobs=(
-        Blob("head", 0.03, (0.05, 0.03, -0.01), (0.08, 0.14, -0.12), (0.03, 0.035),
-             (0.015, 0.018)),
+        Blob("head", 0.03, (0.05, 0.03, -0.01), (0.08, 0.14, -0.12), (0.034, 0.04),
+             (0.022, 0.026)),
     ),
 )
 
@@ -245,9 +245,9 @@ _LEOPARD = Profile(
     name="leopard",
     color=BODY_COLORS["leopard"],
     belly=0.6,
-    spots=Spots(share=0.03, radius=0.045),
+    spots=Spots(density=45.0, radius=0.045),
     blend=0.035,
-    voxel=0.032,
+    voxel=0.038,
     parts=(
         Part("trunk", _CAT_TRUNK, grow=0.05),
         Part("neck", _s((0.0, 0.13, 0.19, -0.10), (0.5, 0.12, 0.14, -0.05),
@@ -267,7 +267,7 @@ _LEOPARD = Profile(
                              (1.1, 0.052, 0.032, 0.032)), grow=0.01),
         # long and thick to the tip
         Part("tail", _s((-0.3, 0.07, 0.07), (0.0, 0.065, 0.065), (0.3, 0.05, 0.05),
-                        (1.0, 0.04, 0.04)), grow=0.01),
+                        (1.0, 0.04, 0.04)), grow=0.02),
     ),
     blobs=(
         Blob("head", 0.1, (0.09, 0.1, -0.02), (0.11, 0.23, -0.05), (0.06, 0.035),
@@ -282,9 +282,9 @@ _LEOPARD_CUB = Profile(
     name="leopard_cub",
     color=BODY_COLORS["leopard_cub"],
     belly=0.6,
-    spots=Spots(share=0.03, radius=0.06, darkness=0.55),
+    spots=Spots(density=35.0, radius=0.06, darkness=0.55),
     blend=0.05,
-    voxel=0.036,
+    voxel=0.043,
     parts=(
         # a round belly, less waist than the adult
         Part("trunk", _s((-0.15, 0.12, 0.13, -0.09), (0.0, 0.15, 0.17, -0.13),
@@ -320,7 +320,7 @@ _DOG_CUB = Profile(
     color=BODY_COLORS["dog_cub"],
     belly=0.35,
     blend=0.05,
-    voxel=0.036,
+    voxel=0.043,
     parts=(
         Part("trunk", _s((-0.15, 0.13, 0.14, -0.10), (0.0, 0.16, 0.18, -0.14),
                          (0.35, 0.15, 0.19, -0.16), (0.7, 0.17, 0.24, -0.21),
@@ -339,7 +339,7 @@ _DOG_CUB = Profile(
                              (1.1, 0.068, 0.042, 0.042)), grow=0.025),
         Part("hind_foot", _s((-0.3, 0.06, 0.047, 0.047), (0.45, 0.08, 0.055, 0.055),
                              (1.1, 0.064, 0.038, 0.038)), grow=0.025),
-        Part("tail", _s((-0.2, 0.06, 0.06), (0.0, 0.055, 0.055), (1.0, 0.025, 0.025))),
+        Part("tail", _s((-0.2, 0.06, 0.06), (0.0, 0.055, 0.055), (1.0, 0.028, 0.028))),
     ),
     blobs=(
         # floppy ears hanging at the sides of the skull
@@ -369,7 +369,7 @@ DEFAULT_PROFILE = Profile(
                              (1.1, 0.052, 0.032, 0.032)), grow=0.01),
         Part("hind_foot", _s((-0.3, 0.045, 0.038, 0.038), (0.45, 0.06, 0.045, 0.045),
                              (1.1, 0.048, 0.032, 0.032)), grow=0.01),
-        Part("tail", _s((-0.2, 0.05, 0.05), (0.0, 0.045, 0.045), (1.0, 0.025, 0.025)), grow=0.005),
+        Part("tail", _s((-0.2, 0.05, 0.05), (0.0, 0.045, 0.045), (1.0, 0.03, 0.03)), grow=0.01),
     ),
     blobs=(
         Blob("head", 0.15, (0.07, 0.07, -0.01), (0.08, 0.14, -0.03), (0.035, 0.025),
