@@ -5,8 +5,9 @@ the identity: a vertex ``x`` at rest moves with joint ``j`` to
 ``G_j (x - B_j) + P_j`` (``B_j`` the joint's rest position, ``G_j`` and
 ``P_j`` its world rotation and position). Linear blend skinning sums these
 over the vertex's influences with its weights; :class:`Skin` does it for all
-vertices: the blended 3x4 transform of every vertex (four gathers of the
-joints' transforms), then one batched matrix-vector product.
+vertices: the blended 3x4 transform of every vertex (one sparse product of
+the weights with the joints' transforms, scipy), then one batched
+matrix-vector product.
 """
 
 from __future__ import annotations
@@ -65,6 +66,9 @@ class Skin:
         Each row sums to 1; unused slots 0.
     bind : ndarray, shape (J, 3)
         Joint rest positions (m).
+    matrix : scipy.sparse.csr_matrix, shape (V, J)
+        The same weights as a sparse matrix: one product blends the joints'
+        transforms for every vertex.
     """
 
     rest_points: np.ndarray
@@ -72,13 +76,22 @@ class Skin:
     joints: np.ndarray
     weights: np.ndarray
     bind: np.ndarray
+    matrix: object
 
     @classmethod
     def from_influences(cls, points, normals, joints, weights, bind) -> Skin:
         """From per-vertex influences (V, 4) and the joints' rest positions (J, 3)."""
+        from scipy.sparse import csr_matrix
+
+        joints = np.asarray(joints, dtype=np.int64)
+        weights = np.asarray(weights, dtype=float)
+        bind = np.asarray(bind, dtype=float)
+        V, k = joints.shape
+        M = csr_matrix((weights.ravel(), (np.repeat(np.arange(V), k), joints.ravel())),
+                       shape=(V, len(bind)))
+        M.eliminate_zeros()
         return cls(np.asarray(points, dtype=float), np.asarray(normals, dtype=float),
-                   np.asarray(joints, dtype=np.int64), np.asarray(weights, dtype=float),
-                   np.asarray(bind, dtype=float))
+                   joints, weights, bind, M)
 
     def pose(self, world_rotations, world_positions) -> tuple[np.ndarray, np.ndarray]:
         """Skinned vertex positions (V, 3) and unit normals (V, 3) for one pose.
@@ -91,13 +104,10 @@ class Skin:
         G = np.asarray(world_rotations, dtype=float)
         P = np.asarray(world_positions, dtype=float)
         t = P - np.einsum("jab,jb->ja", G, self.bind)
-        C = np.concatenate([G.reshape(-1, 9), t], axis=1)              # (J, 12)
-        A = self.weights[:, :1] * C[self.joints[:, 0]]                  # (V, 12)
-        for k in range(1, self.joints.shape[1]):
-            A += self.weights[:, k:k + 1] * C[self.joints[:, k]]
+        A = self.matrix @ np.concatenate([G.reshape(-1, 9), t], axis=1)   # (V, 12)
         x, n = self.rest_points, self.rest_normals
         pts = A[:, 9:] + A[:, 0:9:3] * x[:, :1] + A[:, 1:9:3] * x[:, 1:2] \
             + A[:, 2:9:3] * x[:, 2:]
         nrm = A[:, 0:9:3] * n[:, :1] + A[:, 1:9:3] * n[:, 1:2] + A[:, 2:9:3] * n[:, 2:]
-        nrm /= np.maximum(np.linalg.norm(nrm, axis=1, keepdims=True), 1e-12)
+        nrm /= np.maximum(np.sqrt(np.einsum("vi,vi->v", nrm, nrm)), 1e-12)[:, None]
         return pts, nrm
