@@ -181,11 +181,15 @@ def _s(*rows) -> tuple[Section, ...]:
     return tuple(Section(*r) for r in rows)
 
 
-HOOF_RGB = (0.16, 0.14, 0.13)
+HOOF_RGB = (0.24, 0.22, 0.20)
 NOSE_RGB = (0.12, 0.10, 0.10)
 POINTS_RGB = (0.13, 0.09, 0.07)
 
 # -------------------------------------------------------------------- horse
+# a hoof: a flat sole on the ground, the wall lower at the heel and sloping to the toe
+_HOOF = _s((-0.9, 0.036, 0.026, 0.028), (-0.3, 0.046, 0.038, 0.04), (0.4, 0.046, 0.04, 0.04),
+           (1.0, 0.036, 0.02, 0.022))
+
 _HORSE = Profile(
     name="horse",
     color=BODY_COLORS["horse"],
@@ -220,12 +224,8 @@ _HORSE = Profile(
                             (0.7, 0.022, 0.032), (0.84, 0.03, 0.036), (0.92, 0.022, 0.027),
                             (1.0, 0.03, 0.032)), rgb=POINTS_RGB, grow=0.01),
         # hooves: rounded boxes standing on the ground, wider at the sole
-        Part("fore_foot", _s((-0.9, 0.036, 0.03, 0.035), (-0.2, 0.046, 0.04, 0.04),
-                             (0.6, 0.044, 0.038, 0.036), (1.0, 0.034, 0.028, 0.028)),
-             rgb=HOOF_RGB, power=3.0),
-        Part("hind_foot", _s((-0.9, 0.036, 0.03, 0.035), (-0.2, 0.046, 0.04, 0.04),
-                             (0.6, 0.044, 0.038, 0.036), (1.0, 0.034, 0.028, 0.028)),
-             rgb=HOOF_RGB, power=3.0),
+        Part("fore_foot", _HOOF, rgb=HOOF_RGB, power=4.0),
+        Part("hind_foot", _HOOF, rgb=HOOF_RGB, power=4.0),
         # the dock, then the hair hanging to the hocks
         Part("tail", _s((0.0, 0.05, 0.055), (1.0, 0.045, 0.05), (1.8, 0.05, 0.06),
                         (3.2, 0.03, 0.035)), rgb=POINTS_RGB, grow=0.01),
