@@ -33,7 +33,7 @@ REPO = Path(__file__).resolve().parents[1]
 FOUR = ("dog_cub", "horse", "leopard", "leopard_cub")
 #: Packages the core must not need: the viz extra and the test-only ones.
 NOT_CORE = ("pyvista", "vtk", "vtkmodules", "matplotlib", "imageio", "imageio_ffmpeg",
-            "scipy", "transforms3d", "PIL")
+            "scipy", "transforms3d", "PIL", "skimage")
 
 
 # ------------------------------------------------------------ package data

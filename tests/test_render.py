@@ -129,21 +129,31 @@ def test_cli_render(tmp_path, trot, monkeypatch, capsys):
 
 # ------------------------------------------------------------------ the body
 def test_body_mesh_follows_forward_kinematics(trot):
+    """The preview's body is linear blend skinning of the one rest mesh."""
+    from quadsim.io.body_mesh import body_mesh
     from quadsim.viz.body import BodyMesh
 
     ch = load_character("leopard")
     body = BodyMesh.from_character(ch)
-    assert body.faces.max() < body.n_points and body.owner.max() < ch.skeleton.n_joints
+    glb = body_mesh(ch.skeleton)
+    np.testing.assert_array_equal(body.points, glb.positions)      # the GLB's mesh
+    np.testing.assert_array_equal(body.faces, glb.triangles)
+    assert body.faces.max() < body.n_points and body.joints.max() < ch.skeleton.n_joints
     G, P = trot.world_rotations()[7], trot.world_positions()[7]
     pts, nrm = body.posed(G, P)
-    # each vertex keeps its distance to its owner joint (a rigid transform per bone)
-    np.testing.assert_allclose(np.linalg.norm(pts - P[body.owner], axis=1),
-                               np.linalg.norm(body.points, axis=1), atol=1e-9)
     np.testing.assert_allclose(np.linalg.norm(nrm, axis=1), 1.0, atol=1e-9)
-    # batch of one vertex checked by hand
-    v = 123
-    j = body.owner[v]
-    np.testing.assert_allclose(pts[v], G[j] @ body.points[v] + P[j], atol=1e-12)
+    # a few vertices skinned by hand: sum of w * (G_j (x - B_j) + P_j)
+    B = ch.skeleton.rest_positions
+    for v in (0, 123, body.n_points // 2, body.n_points - 1):
+        want = sum(w * (G[j] @ (body.points[v] - B[j]) + P[j])
+                   for j, w in zip(body.joints[v], body.weights[v]))
+        np.testing.assert_allclose(pts[v], want, atol=1e-12)
+    # vertices moved by one joint only keep their distance to it
+    rigid = body.weights[:, 0] == 1.0
+    assert rigid.sum() > 0.05 * body.n_points
+    own = body.owner[rigid]
+    np.testing.assert_allclose(np.linalg.norm(pts[rigid] - P[own], axis=1),
+                               np.linalg.norm(body.points[rigid] - B[own], axis=1), atol=1e-9)
     # one PolyData, posed in place
     mesh = body.polydata(G, P)
     before = mesh.points.copy()

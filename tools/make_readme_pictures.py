@@ -4,9 +4,12 @@ Run from anywhere (no display needed; the frames render off screen)::
 
     python tools/make_readme_pictures.py [--out docs/img]
 
-Writes ``<character>.png`` (480x320, side view, trotting) for every shipped
-character and ``gait_diagram.png`` (the leopard's walk -> trot -> gallop ramp,
-measured from its foot positions). The same inputs give the same pictures.
+Writes ``<character>.png`` (480x320, side view, trotting, the character's
+procedural body from :mod:`quadsim.mesh`, as ``render`` and the preview draw
+it) for every shipped character and ``gait_diagram.png`` (the leopard's walk
+-> trot -> gallop ramp, measured from its foot positions). The same inputs
+give the same pictures. The contact sheets per character and gait are
+``tools/contact_sheets.py``'s.
 """
 
 from __future__ import annotations

@@ -6,8 +6,8 @@ importing :mod:`quadsim.viz` is cheap.
 - :mod:`quadsim.viz.diagram`: footfall diagram, Hildebrand plot, CPG phases
   and spine angle (matplotlib); :func:`footfall_data`
   (:mod:`quadsim.viz.footfalls`) is the pure-numpy measurement behind it.
-- :mod:`quadsim.viz.body`: a renderable body (capsule bones and joint
-  spheres in one mesh, posed by per-bone transforms).
+- :mod:`quadsim.viz.body`: a renderable body (the procedural mesh of
+  :mod:`quadsim.mesh`, posed by linear blend skinning).
 - :mod:`quadsim.viz.scene`: the pyvista scene (body, scrolling ground grid,
   cameras) shared by the preview and the renderer.
 - :mod:`quadsim.viz.preview`: :class:`Preview`, steering a controller live
