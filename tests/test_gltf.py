@@ -9,8 +9,6 @@ with the variable set to a folder that does not hold it, they fail.
 """
 
 import json
-import os
-import shutil
 import struct
 import subprocess
 from pathlib import Path
@@ -361,29 +359,11 @@ def test_cli_run_writes_a_glb(tmp_path, capsys):
 
 
 # --------------------------------------------------- the Khronos validator
-def _validator() -> Path:
-    """The gltf-validator package folder, or skip (fail when configured but missing)."""
-    env = os.environ.get("QUADSIM_GLTF_VALIDATOR")
-    node = shutil.which("node")
-    if env:
-        cands = [Path(env), Path(env) / "node_modules" / "gltf-validator"]
-        found = [c for c in cands if (c / "package.json").is_file()]
-        if not found:
-            pytest.fail(f"QUADSIM_GLTF_VALIDATOR={env!r} holds no gltf-validator package")
-        if node is None:
-            pytest.fail("QUADSIM_GLTF_VALIDATOR is set but `node` is not on the PATH")
-        return found[0]
-    local = REPO / "node_modules" / "gltf-validator"
-    if node is None or not (local / "package.json").is_file():
-        pytest.skip("Khronos glTF validator not installed: `npm install --prefix /tmp/gltfv "
-                    "gltf-validator` and set QUADSIM_GLTF_VALIDATOR="
-                    "/tmp/gltfv/node_modules/gltf-validator")
-    return local
-
-
 @pytest.fixture(scope="module")
 def validator_reports(glbs, motions, tmp_path_factory):
-    pkg = _validator()
+    from gltf_tools import validator_dir
+
+    pkg = validator_dir()
     extra = tmp_path_factory.mktemp("glb_extra")
     leopard = motions["leopard"]
     files = dict(glbs)
