@@ -48,12 +48,11 @@ counted from 0) and what is allowed. Degrees, km/h and mph are converted to SI
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from quadsim.commands import Command, Script
-from quadsim.errors import InputError
+from quadsim.errors import InputError, read_toml
 from quadsim.frames import KMH, MPH
 
 __all__ = [
@@ -149,19 +148,7 @@ def load_config(path: str | Path) -> RunConfig:
         line), or breaks a rule of the format (the message names the key).
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such config file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder, not a config file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file (expected UTF-8 TOML)") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        # tomllib's message ends with "(at line L, column C)".
-        raise InputError(f"{path}: not valid TOML: {e}") from None
+    data = read_toml(path, "config")
     return parse_config(data, source=path)
 
 

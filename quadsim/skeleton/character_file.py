@@ -27,13 +27,12 @@ from __future__ import annotations
 
 import difflib
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from types import MappingProxyType
 
-from quadsim.errors import InputError
+from quadsim.errors import InputError, read_toml
 
 __all__ = [
     "GAIT_FIELDS",
@@ -243,18 +242,7 @@ def read_character_file(path: str | Path,
         format; the message names the file and the key.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such character file") from None
-    except IsADirectoryError:
-        raise InputError(f"{path}: is a folder, not a character file") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{path}: not a text file (expected UTF-8 TOML)") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(f"{path}: not valid TOML ({e})") from None
+    data = read_toml(path, "character")
     return character_file_from_dict(data, str(path), gait_names)
 
 
