@@ -14,7 +14,8 @@ import pytest
 from quadsim.kinematics.ik import leg_geometry, solve_leg, stack_leg_geometries
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.commands import Command, Script
-from quadsim.locomotion.controller import ProceduralController, simulate
+from quadsim.locomotion.controller import ProceduralController
+from quadsim.locomotion.offline import simulate
 from quadsim.locomotion.cpg import cpg_step
 from quadsim.locomotion.gaits import max_speed
 from quadsim.skeleton.character import load_character
@@ -41,21 +42,22 @@ def test_step_by_step_equals_simulate(name):
         motion = simulate(ch, script, seconds, fps, seed=3)
         dt = 1.0 / fps
         ctl = ProceduralController(ch, dt=dt, seed=3, gait=script.commands[0].gait)
-        frames = [ctl.step(script.commands[0], 0.0, pose=True)]
-        frames += [ctl.step(script.command_at((k - 1) * dt), dt, pose=True)
+        frames = [ctl.step(script.commands[0], 0.0)]
+        frames += [ctl.step(script.command_at((k - 1) * dt), dt)
                    for k in range(1, motion.n_frames)]
-    local = np.stack([f["local_rotations"] for f in frames])
+    local = np.stack([f.local_rotations for f in frames])
     np.testing.assert_allclose(quaternions_from_matrices(local), motion.rotations, atol=TOL)
-    np.testing.assert_allclose(np.stack([f["root"] for f in frames]), motion.root_positions,
+    np.testing.assert_allclose(np.stack([f.root for f in frames]), motion.root_positions,
                                atol=TOL)
-    np.testing.assert_allclose(np.stack([f["positions"] for f in frames]),
+    np.testing.assert_allclose(np.stack([f.positions for f in frames]),
                                motion.world_positions(), atol=1e-8)
-    np.testing.assert_array_equal(np.stack([f["contacts"] for f in frames]), motion.contacts)
-    np.testing.assert_allclose(np.stack([f["phase"] for f in frames]), motion.extras["phase"],
-                               atol=TOL)
-    np.testing.assert_allclose(np.stack([f["ik_error"] for f in frames]),
-                               motion.extras["ik_error"], atol=TOL)
-    assert [f["gait"] for f in frames] == list(motion.gaits)
+    np.testing.assert_array_equal(np.stack([f.contacts for f in frames]), motion.contacts)
+    for key in ("phase", "ik_error", "spine", "duty", "speed", "heading", "cpg_amplitude"):
+        np.testing.assert_allclose(np.stack([f.extras[key] for f in frames]), motion.extras[key],
+                                   atol=TOL, err_msg=key)
+    assert [f.gait for f in frames] == list(motion.gaits)
+    np.testing.assert_allclose([f.time for f in frames], np.arange(motion.n_frames) / fps,
+                               atol=1e-9)
 
 
 @pytest.mark.parametrize("name", CHARACTERS)

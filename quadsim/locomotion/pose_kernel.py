@@ -36,8 +36,10 @@ from __future__ import annotations
 
 import math
 
+from typing import NamedTuple
+
 import numpy as np
-from numba import njit, prange
+from numba import njit
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -490,15 +492,11 @@ def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
 CHUNK = 32
 
 
-@njit(cache=True)
-def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
-              leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
-    """Pose T packed plans of one character (compiled).
+class PoseRig(NamedTuple):
+    """A character's constants for :func:`pose_rows`.
 
-    Parameters
+    Attributes
     ----------
-    plan : ndarray, shape (T, F)
-        Packed plans (:func:`pack_plan`).
     parents : ndarray of int, shape (J,)
         Skeleton parents, ``parents[j] < j``.
     offsets : ndarray, shape (J, 3)
@@ -513,6 +511,30 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
     thorax : int
     leg_int, leg_top, leg_bones, leg_scal : ndarray
         The legs (:func:`pack_legs`).
+    """
+
+    parents: np.ndarray
+    offsets: np.ndarray
+    spine: np.ndarray
+    tail: np.ndarray
+    neck: np.ndarray
+    trunk: np.ndarray
+    thorax: int
+    leg_int: np.ndarray
+    leg_top: np.ndarray
+    leg_bones: np.ndarray
+    leg_scal: np.ndarray
+
+
+@njit(cache=True, nogil=True)
+def pose_rows(plan, rig, local, positions, err):
+    """Pose T packed plans of one character (compiled).
+
+    Parameters
+    ----------
+    plan : ndarray, shape (T, F)
+        Packed plans (:func:`pack_plan`).
+    rig : PoseRig
     local : ndarray, shape (T, J, 3, 3)
         Output: local rotations.
     positions : ndarray, shape (T, J, 3)
@@ -530,6 +552,8 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
     arrays to helpers inside their loops: each such reference costs an
     atomic reference count, which threads sharing the arrays contend for.
     """
+    parents, offsets, spine, tail, neck, trunk, thorax = rig[:7]
+    leg_int, leg_top, leg_bones, leg_scal = rig[7:]
     T = plan.shape[0]
     G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
     how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
@@ -541,29 +565,6 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
         _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 
 
-#: Fewest rows for which :func:`pose_rows_parallel` splits the work over threads.
+#: Fewest rows for which the posing and the plan are split over threads
+#: (:func:`quadsim.locomotion.blocks.run_blocks`).
 PARALLEL_ROWS = 256
-
-
-@njit(cache=True, parallel=True)
-def pose_rows_parallel(n_blocks, plan, parents, offsets, spine, tail, neck, trunk, thorax,
-                       leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
-    """:func:`pose_rows` with the rows split into ``n_blocks`` blocks, run on threads.
-
-    Rows are independent and each block runs :func:`pose_rows` with its own
-    scratch arrays, so the result is the same as :func:`pose_rows`' whatever
-    the number of blocks or threads. ``n_blocks`` is passed in (the caller
-    gives ``numba.get_num_threads()``, one block per core by default) rather
-    than asked for inside, which would keep numba from caching the kernel.
-    The other parameters are :func:`pose_rows`'.
-    """
-    T = plan.shape[0]
-    n = max(n_blocks, 1)
-    size = (T + n - 1) // n
-    for b in prange(n):
-        a = b * size
-        e = min(T, a + size)
-        if a < e:
-            pose_rows(plan[a:e], parents, offsets, spine, tail, neck, trunk, thorax,
-                      leg_int, leg_top, leg_bones, leg_scal, local[a:e], positions[a:e],
-                      err[a:e])
