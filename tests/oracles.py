@@ -41,8 +41,9 @@ def _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, p: CPGParams):
     return dtheta, dtheta_s
 
 
-def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGParams()):
+def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams | None = None):
     """The polar Hopf network's step: exact amplitudes, RK4 phases."""
+    params = params or CPGParams()
     omega = np.asarray(omega, dtype=float)
     psi = np.asarray(psi, dtype=float)
     h = dt / params.substeps

@@ -13,9 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
-from quadsim.locomotion.rowmath import ahead_of_mid, interp_leg
+from quadsim.locomotion.rowmath import ahead_of_mid, inner, interp_leg
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -42,7 +41,7 @@ MIN_STANCE_WIDTH = 1e-3
 MIN_DUTY = 1e-3
 
 
-@njit(cache=True)
+@inner
 def body_rows(body, state, scratch, reach, sc, out):
     """Stage 6 of the step for N rows: the spine's concave/convex machine
     and slow flexion, the bob and vaulting drops, body height and pitch,

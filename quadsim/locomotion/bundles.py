@@ -21,6 +21,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from quadsim.locomotion.rowmath import inner
+
 __all__ = ["BodyConstants", "BodyState", "CommandRows", "CpgState", "FeetState", "GaitRows",
            "GaitTables", "MotionState", "PlanOutputs", "PlanState", "ReachTables",
            "ScheduleState", "StepConstants", "StepScratch", "gait_rows", "plan_outputs",
@@ -219,7 +221,7 @@ def gait_rows(n):
                     np.zeros(n), np.zeros(n), np.zeros(n))
 
 
-@njit(cache=True)
+@inner
 def step_scratch(n):
     """A :class:`StepScratch` of ``n`` rows."""
     return StepScratch(np.empty(n), np.empty(n), np.empty((n, 4)), np.empty((n, 4)),

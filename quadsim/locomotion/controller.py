@@ -46,8 +46,12 @@ from quadsim.errors import QuadsimClampWarning
 from quadsim.locomotion.bundles import CommandRows, PlanOutputs
 from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import STAND, resolve_gait_name
-from quadsim.locomotion.plan_kernels import (GAIT_HOLD_FACTOR, MIN_TURN_SPEED, run_plan,
-                                             step_constants)
+from quadsim.locomotion.plan_kernels import (
+    GAIT_HOLD_FACTOR,
+    MIN_TURN_SPEED,
+    run_plan,
+    step_constants,
+)
 from quadsim.locomotion.pose_kernel import plan_columns
 from quadsim.locomotion.rowmath import interp1
 from quadsim.locomotion.tables import character_plan

@@ -30,12 +30,13 @@ for :class:`~quadsim.locomotion.batch.BatchController` -- and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
+
+from quadsim.locomotion.rowmath import inner
 
 TWO_PI = 2.0 * np.pi
 
@@ -106,7 +107,7 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGPara
             rs.reshape(batch))
 
 
-@njit(cache=True)
+@inner
 def _rates(out, t, r, omega, w, ws, p):
     """The phase derivatives of one network into ``out`` (5,): legs then
     spine. ``t`` (t0, t1, t2, t3, spine) phases, ``r`` (r0..r3) amplitudes,
@@ -132,7 +133,7 @@ def _rates(out, t, r, omega, w, ws, p):
     out[4] = omega + ws * (r0 * math.sin(t0 + q0 - ts) + r2 * math.sin(t2 + q2 - ts))
 
 
-@njit(cache=True)
+@inner
 def _amplitude(x, mu, decay):
     """The exact solution of ``dr/dt = a (mu - r^2) r`` for one amplitude:
     ``r(t)^2 = mu / (1 + (mu / r0^2 - 1) decay)`` with ``decay =

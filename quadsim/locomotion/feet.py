@@ -13,10 +13,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
 from quadsim.locomotion.footpath import swing_into
-from quadsim.locomotion.rowmath import MIN_SWING, frac
+from quadsim.locomotion.rowmath import MIN_SWING, frac, inner
 from quadsim.locomotion.turning import arc_step
 
 TWO_PI = 2.0 * math.pi
@@ -33,7 +31,7 @@ LEAD_STANCE_FRACTION = 0.5
 TOUCHDOWN_EPS = 1e-12
 
 
-@njit(cache=True)
+@inner
 def feet_rows(state, scratch, reach, sc, out):
     """Stage 5 of the step for N rows: lift-off and touchdown, swing
     progress, touchdown targets on the turning arc and swing paths.
@@ -70,7 +68,7 @@ def feet_rows(state, scratch, reach, sc, out):
             th = theta[n, i]
             if stance[n, i]:
                 u = frac(th / TWO_PI)
-                due = dn <= u and u <= 1.0 - MIN_SWING
+                due = dn <= u <= 1.0 - MIN_SWING
                 if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > 1e-9:
                     stance[n, i] = False
                     for c in range(3):

@@ -82,7 +82,7 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
     if not (math.isfinite(fps) and fps > 0):
         raise ValueError(f"fps must be a positive number, got {fps!r}")
-    n = int(round(duration * fps))
+    n = round(duration * fps)
     dt = 1.0 / fps
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)

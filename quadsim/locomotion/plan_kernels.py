@@ -34,16 +34,41 @@ import math
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.body import body_rows
 from quadsim.locomotion.blocks import run_blocks
-from quadsim.locomotion.bundles import (PlanOutputs, StepConstants, gait_rows, plan_outputs,
-                                        step_scratch, take_rows)
+from quadsim.locomotion.body import body_rows
+from quadsim.locomotion.bundles import (
+    PlanOutputs,
+    StepConstants,
+    gait_rows,
+    plan_outputs,
+    step_scratch,
+    take_rows,
+)
 from quadsim.locomotion.cpg import TWO_PI, cpg_step_rows
 from quadsim.locomotion.feet import feet_rows
-from quadsim.locomotion.pose_kernel import (BEND_PITCH, BEND_YAW, FEET, FOLD, HEADING, LOOK,
-                                            PITCH, ROOT, SWAY, TAIL, TOE)
-from quadsim.locomotion.rowmath import (MIN_SWING, frac, interp_col, interp_row, keys_row,
-                                        room_row, stride_length)
+from quadsim.locomotion.pose_kernel import (
+    BEND_PITCH,
+    BEND_YAW,
+    FEET,
+    FOLD,
+    HEADING,
+    LOOK,
+    PITCH,
+    ROOT,
+    SWAY,
+    TAIL,
+    TOE,
+)
+from quadsim.locomotion.rowmath import (
+    MIN_SWING,
+    frac,
+    inner,
+    interp_col,
+    interp_row,
+    keys_row,
+    room_row,
+    stride_length,
+)
 from quadsim.locomotion.transition import advance_schedule, auto_choice, target_into
 from quadsim.locomotion.turning import HEADING_GAIN, steer_rate
 
@@ -71,7 +96,7 @@ SPINE_SMOOTH_TIME = 0.03
 DROP_TIME = 0.04
 
 
-@njit(cache=True)
+@inner
 def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     """Stage 1: the speed and turn rate of this step, from the commands.
 
@@ -133,7 +158,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
                     break
                 continue
             gov = min(gov, num / den)
-        if gov < vc:
+        if gov < vc:  # noqa: PLR1730 -- not min(): a NaN governor leaves vc as it is
             vc = gov
         acc = sc.acceleration * sc.dt
         dv = min(max(vc - mo.speed[n], -acc), acc)
@@ -155,7 +180,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
         mo.yaw_rate[n] += (rate - mo.yaw_rate[n]) * sc.a_turn
 
 
-@njit(cache=True)
+@inner
 def schedule_rows(cmd, body, gaits, sc, state):
     """Stage 2: the gait wanted and the blended gait parameters of this step.
 
@@ -184,7 +209,7 @@ def schedule_rows(cmd, body, gaits, sc, state):
         advance_schedule(gaits, k, sch, n, wanted, v, sc.dt, period, stand, one)
 
 
-@njit(cache=True)
+@inner
 def stride_rows(body, reach, sc, state, scratch):
     """Stage 3: the stride frequency (``cpg.freq``), the clock ``omega`` and
     the target phases ``psi`` (into ``scratch``): Alexander's stride law,
@@ -211,7 +236,7 @@ def stride_rows(body, reach, sc, state, scratch):
             scratch.psi[n, i] = p.phases[n, i]
 
 
-@njit(cache=True)
+@inner
 def cpg_rows(sc, state, scratch):
     """Stage 4: the oscillators advance by ``sc.dt``; a leg's phase never
     runs backwards (``scratch.theta_prev`` keeps the phases before)."""
@@ -230,7 +255,7 @@ def cpg_rows(sc, state, scratch):
         c.r_s[n] = rs[n]
 
 
-@njit(cache=True)
+@inner
 def path_rows(body, gaits, reach, sc, state, scratch):
     """Stage 5a: the body moves on its path (heading, pelvis, spine bend)
     and the feet stage's inputs follow: the key points, the duty factor of
@@ -268,7 +293,7 @@ def path_rows(body, gaits, reach, sc, state, scratch):
         scratch.half_min[n] = interp_row(pd, reach.drops, reach.sweep_min, n)
 
 
-@njit(cache=True)
+@inner
 def pack_rows(state, out):
     """Stage 7: each row's plan packed for the posing
     (:func:`~quadsim.locomotion.pose_kernel.pack_plan`'s layout, with

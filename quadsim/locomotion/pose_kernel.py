@@ -35,11 +35,12 @@ Conventions as in :mod:`quadsim.kinematics.ik`.
 from __future__ import annotations
 
 import math
-
 from typing import NamedTuple
 
 import numpy as np
 from numba import njit
+
+from quadsim.locomotion.rowmath import inner
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -173,7 +174,7 @@ def _fk_joint(t, g, j, p, how, frame, local, offsets, G, positions):
     G[g, j, 2, 2] = a20 * l02 + a21 * l12 + a22 * l22
 
 
-@njit(cache=True)
+@inner
 def _layout(parents, spine, tail, neck, trunk, leg_int):
     """What :func:`pose_rows` works out once per call from the skeleton.
 
@@ -233,7 +234,7 @@ def _layout(parents, spine, tail, neck, trunk, leg_int):
     return how, frame, fixed, rest
 
 
-@njit(cache=True)
+@inner
 def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
     towards C = (``cd``, ``cf``), the target less the post bones (see
@@ -268,7 +269,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     return c0, s0, c1, s1, x, y, abs(r_true - r)
 
 
-@njit(cache=True)
+@inner
 def _direction(x, y, h):
     """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
     if h > 0.0:
@@ -277,7 +278,7 @@ def _direction(x, y, h):
     return math.cos(a), math.sin(a)
 
 
-@njit(cache=True)
+@inner
 def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
                 local, positions, G):
     """Rows ``a`` to ``b`` of :func:`pose_rows` up to the legs: the pelvis,
@@ -341,7 +342,7 @@ def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, 
                 _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
 
 
-@njit(cache=True)
+@inner
 def _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, local, err):
     """The legs' IK (``ik.solve_leg``, leg by leg) in rows ``a`` to ``b``, from
     their parents' world frames ``G[t - a]`` and positions: writes the
@@ -476,7 +477,7 @@ def _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, l
                 local[t, j, 2, 2] = cb
 
 
-@njit(cache=True)
+@inner
 def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
     """Forward kinematics of the joints ``rest`` in rows ``a`` to ``b``, from
     the trunk's world frames ``G[t - a]``."""

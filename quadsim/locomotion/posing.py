@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+
 from quadsim.kinematics.ik import LegGeometry, leg_geometry
 from quadsim.locomotion.blocks import run_blocks
 from quadsim.locomotion.pose_kernel import (

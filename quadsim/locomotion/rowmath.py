@@ -14,6 +14,12 @@ from numba import njit
 
 from quadsim.frames import GRAVITY
 
+#: Decorator of a compiled function only other compiled functions call:
+#: numba builds it no Python entry point (the entry of a function of large
+#: bundles costs more to compile than its body), so calling it from Python
+#: crashes. Each stage and helper of the plan and the posing is one.
+inner = njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12
 #: Exponent of the Froude number in Alexander's stride law
@@ -21,7 +27,7 @@ MIN_SWING = 0.12
 STRIDE_EXPONENT = 0.3
 
 
-@njit(cache=True)
+@inner
 def frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float (the difference is exact, or rounds the same sum as the
@@ -29,7 +35,7 @@ def frac(x):
     return x - math.floor(x)
 
 
-@njit(cache=True)
+@inner
 def interp_knot(x, xp):
     """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
     for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
@@ -62,7 +68,7 @@ def interp1(x, xp, fp):
     return slope * (x - xp[j]) + fp[j]
 
 
-@njit(cache=True)
+@inner
 def interp_row(x, xp, fp, n):
     """:func:`interp1` of ``x`` on row ``n`` of ``fp`` (N, D)."""
     j, line = interp_knot(x, xp)
@@ -72,7 +78,7 @@ def interp_row(x, xp, fp, n):
     return slope * (x - xp[j]) + fp[n, j]
 
 
-@njit(cache=True)
+@inner
 def interp_col(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, :, i]`` (``fp`` (N, D, C))."""
     j, line = interp_knot(x, xp)
@@ -82,7 +88,7 @@ def interp_col(x, xp, fp, n, i):
     return slope * (x - xp[j]) + fp[n, j, i]
 
 
-@njit(cache=True)
+@inner
 def interp_leg(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, i, :]`` (``fp`` (N, 4, D)), the
     knots searched from the top as the body stage always did."""
@@ -99,7 +105,7 @@ def interp_leg(x, xp, fp, n, i):
     return (xp[j + 1] - xp[j]) / (fp[n, i, j + 1] - x0) * (x - x0) + xp[j]
 
 
-@njit(cache=True)
+@inner
 def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
     """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
     ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
@@ -115,7 +121,7 @@ def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
     kh[n, 1] = heading + bend
 
 
-@njit(cache=True)
+@inner
 def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
     """How far (m) ``points[n, i]`` lies ahead of foot ``i``'s mid-stance point
     (its girdle's key plus the foot's offset turned to the girdle's heading),
@@ -131,7 +137,7 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
         + (points[n, i, 2] - mz) * c
 
 
-@njit(cache=True)
+@inner
 def room_row(keys, kh, offset, planted, base, room, n):
     """Trailing room (m) of each foot of row ``n``: ``base`` plus how far its
     planted point is ahead of its mid-stance point along the girdle's
@@ -142,7 +148,7 @@ def room_row(keys, kh, offset, planted, base, room, n):
         room[i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
 
 
-@njit(cache=True)
+@inner
 def stride_length(minv, coef, speed, h):
     """Natural stride length (m) at ``speed`` by Alexander's law, for the
     parameters' least speed ``minv`` and stride coefficient ``coef``, hip

@@ -19,12 +19,20 @@ import numpy as np
 
 from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
-from quadsim.locomotion.bundles import (BodyConstants, BodyState, CpgState, FeetState,
-                                        GaitTables, MotionState, PlanState, ReachTables,
-                                        ScheduleState, gait_rows)
+from quadsim.locomotion.bundles import (
+    BodyConstants,
+    BodyState,
+    CpgState,
+    FeetState,
+    GaitTables,
+    MotionState,
+    PlanState,
+    ReachTables,
+    ScheduleState,
+    gait_rows,
+)
 from quadsim.locomotion.cpg import TWO_PI
-from quadsim.locomotion.gaits import (STAND, Gait, auto_gaits, gait_ids, gait_table,
-                                      max_speed)
+from quadsim.locomotion.gaits import STAND, Gait, auto_gaits, gait_ids, gait_table, max_speed
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.transition import HYSTERESIS, gait_tables, target_into
 from quadsim.skeleton.character import Character

@@ -20,12 +20,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import pairwise
 
 import numpy as np
 from numba import njit
 
 from quadsim.locomotion.bundles import GaitRows, GaitTables, ScheduleState, gait_rows
-from quadsim.locomotion.gaits import Gait, STAND
+from quadsim.locomotion.gaits import STAND, Gait
+from quadsim.locomotion.rowmath import inner
 
 #: Length of the transition out of standing (s): setting off is quicker
 #: than a change between two gaits.
@@ -41,7 +43,7 @@ MAX_TRANSITION_TIME = 2.0
 HYSTERESIS = 0.06
 
 
-@njit(cache=True)
+@inner
 def _frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float, without the library ``fmod`` call."""
@@ -87,7 +89,7 @@ def blend_into(src, n, out, m, s):
         out.spine_amplitude[m] - src.spine_amplitude[n])
 
 
-@njit(cache=True)
+@inner
 def scheduled_into(tables, k, sched, n, speed, out, m):
     """The blended parameters of row ``n`` of the scheduler ``sched`` at
     ``speed`` into row ``m`` of ``out``: the current gait's, moved from the
@@ -98,7 +100,7 @@ def scheduled_into(tables, k, sched, n, speed, out, m):
         blend_into(sched.source, n, out, m, s)
 
 
-@njit(cache=True)
+@inner
 def auto_choice(tables, k, current, speed, hysteresis):
     """The automatic gait id of kind ``k`` for ``speed`` (m/s), keeping
     ``current`` while the speed is inside its band widened by ``hysteresis``."""
@@ -107,7 +109,7 @@ def auto_choice(tables, k, current, speed, hysteresis):
     if kpos >= 0:
         lo = tables.bounds[k, kpos - 1] * (1 - hysteresis) if kpos > 0 else -math.inf
         hi = tables.bounds[k, kpos] * (1 + hysteresis) if kpos < na - 1 else math.inf
-        if lo <= speed and speed <= hi:
+        if lo <= speed <= hi:
             return current
     idx = 0
     for j in range(na - 1):
@@ -116,7 +118,7 @@ def auto_choice(tables, k, current, speed, hysteresis):
     return tables.auto[k, idx]
 
 
-@njit(cache=True)
+@inner
 def advance_schedule(tables, k, sched, n, wanted, speed, dt, period, stand, scratch):
     """One step of row ``n`` of the scheduler: the running transition
     advances by ``dt`` (s); if ``wanted`` differs from the current gait a
@@ -143,7 +145,7 @@ def advance_schedule(tables, k, sched, n, wanted, speed, dt, period, stand, scra
     scheduled_into(tables, k, sched, n, speed, sched.params, n)
 
 
-@njit(cache=True)
+@inner
 def _copy_row(src, n, out, m):
     out.duty[m] = src.duty[n]
     for i in range(4):
@@ -201,7 +203,7 @@ def gait_tables(kinds, ids: tuple[str, ...]) -> GaitTables:
             t["bound"][k, g] = 1.0 if gait.spine == "bound" else 0.0
             t["spine_amplitude"][k, g] = gait.spine_amplitude
         ranges = [gaits[a].speed_range for a in auto]
-        b = [0.5 * (x[1] + y[0]) for x, y in zip(ranges[:-1], ranges[1:])]
+        b = [0.5 * (x[1] + y[0]) for x, y in pairwise(ranges)]
         auto_ids[k, :len(auto)] = [ids.index(a) for a in auto]
         bounds[k, :len(b)] = b
         auto_pos[k, auto_ids[k, :len(auto)]] = np.arange(len(auto))

@@ -21,6 +21,8 @@ import math
 import numpy as np
 from numba import njit
 
+from quadsim.locomotion.rowmath import inner
+
 TWO_PI = 2.0 * math.pi
 
 
@@ -30,7 +32,7 @@ HEADING_GAIN = 2.0
 STRAIGHT_TURN = 1e-6
 
 
-@njit(cache=True)
+@inner
 def arc_step(heading, speed, yaw_rate, tau):
     """Move ``tau`` s along the arc of ``speed`` (m/s) and ``yaw_rate``
     (rad/s) from ``heading`` (rad): the ground displacement ``(dx, dz)`` (m)
@@ -47,7 +49,7 @@ def arc_step(heading, speed, yaw_rate, tau):
     return dx, dz, heading + dh
 
 
-@njit(cache=True)
+@inner
 def steer_rate(heading, target, max_rate, gain):
     """Yaw rate (rad/s) steering ``heading`` towards ``target`` (rad):
     ``gain`` (1/s) times the wrapped error, within ``max_rate``."""
