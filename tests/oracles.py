@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.frames import UP
+from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.locomotion.cpg import TWO_PI, CPGParams
 from quadsim.locomotion.footpath import SWING_KNOTS
 
@@ -97,3 +98,119 @@ def arc_advance(position, heading, speed, yaw_rate, tau):
     chord = np.asarray(speed, dtype=float) * tau * np.sinc(dh / (2 * np.pi))
     mid = h + 0.5 * dh
     return p + np.stack([chord * np.sin(mid), 0 * chord, chord * np.cos(mid)], -1), h + dh
+
+
+# ------------------------------------------------------------ leg IK
+def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
+    """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
+
+    The pair runs from Q (below the pre bones) to C (the target less the
+    post bones). Returns how far the foot falls short of the target (m).
+    """
+    L = geom.lengths
+    k0 = geom.pair
+    post = slice(k0 + 2, None)
+    cd = down_t - (L[..., post] * np.cos(phi[..., post])).sum(axis=-1)
+    cf = fwd_t - (L[..., post] * np.sin(phi[..., post])).sum(axis=-1)
+    l1, l2 = L[..., k0], L[..., k0 + 1]
+    vd, vf = cd - qd, cf - qf
+    r_true = np.hypot(vd, vf)
+    # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
+    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
+    gam = np.arctan2(vf, vd)
+    cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
+    phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
+    bd = qd + l1 * np.cos(phi[..., k0])
+    bf = qf + l1 * np.sin(phi[..., k0])
+    phi[..., k0 + 1] = np.arctan2(qf + r * np.sin(gam) - bf, qd + r * np.cos(gam) - bd)
+    return np.abs(r_true - r)
+
+
+def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
+              target: np.ndarray, fold: np.ndarray | float = 0.0,
+              toe_pitch: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations that put a leg's foot joint on a target.
+
+    Parameters
+    ----------
+    geom : LegGeometry
+        One leg, or several stacked by :func:`stack_leg_geometries` (then
+        every batch shape below ends with their number B).
+    parent_rot : array-like, shape (..., 3, 3)
+        World rotation of the top joint's parent.
+    parent_pos : array-like, shape (..., 3)
+        World position of the top joint's parent (m).
+    target : array-like, shape (..., 3)
+        World position wanted for the foot joint (m).
+    fold : array-like, shape (...)
+        Swing fold of the post bones, 0 (planted) to 1 (fully folded).
+    toe_pitch : array-like, shape (...)
+        Rotation of the toes/hoof from level (rad), positive tips them down.
+
+    Returns
+    -------
+    local : ndarray, shape (..., n + 1, 3, 3)
+        Local rotation of each chain joint, top to foot.
+    reached : ndarray, shape (...)
+        Distance from the target to the foot actually reached (m); 0 for a
+        reachable target.
+    """
+    Rp = np.asarray(parent_rot, dtype=float)
+    Pp = np.asarray(parent_pos, dtype=float)
+    tgt = np.asarray(target, dtype=float)
+    batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1],
+                                np.shape(fold), np.shape(toe_pitch))
+    RpT = np.swapaxes(Rp, -1, -2)
+    top = Pp + np.einsum("...ij,...j->...i", Rp, geom.top_offset)
+    d = np.einsum("...ij,...j->...i", RpT, tgt - top)
+    d = np.broadcast_to(d, batch + (3,))
+    # abduction about the parent's forward axis brings the target into the plane
+    # (a target above the top joint swings the plane past horizontal: the
+    # leg then points at it, and `reached` reports the true miss)
+    a = np.arctan2(d[..., 0], -d[..., 1])
+    ca, sa = np.cos(a), np.sin(a)
+    down_t = -(d[..., 1] * ca - d[..., 0] * sa)  # -(y') with y' = -x sin a + y cos a
+    fwd_t = d[..., 2]
+    # world down in the leg plane
+    g = np.broadcast_to(RpT[..., 1, :] * -1.0, batch + (3,))  # R^T (0,-1,0)
+    gy = -g[..., 0] * sa + g[..., 1] * ca
+    phi_down = np.arctan2(g[..., 2], -gy)
+
+    L = geom.lengths
+    A0 = geom.rest_angles
+    n = geom.n_bones
+    k0 = geom.pair
+    phi = np.empty(batch + (n,))
+    # pre bones swing with the leg
+    alpha = np.arctan2(fwd_t, down_t)
+    qd = np.zeros(batch)
+    qf = np.zeros(batch)
+    for k in range(k0):
+        phi[..., k] = A0[..., k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
+        qd = qd + L[..., k] * np.cos(phi[..., k])
+        qf = qf + L[..., k] * np.sin(phi[..., k])
+    # post bones: rest angle to the world vertical, turned with the leg, plus
+    # the swing fold
+    fold = np.asarray(fold, dtype=float)
+    for k in range(k0 + 2, n):
+        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
+                       + geom.fold[..., k] * fold)
+    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+    # keep the post joints inside their limits relative to the bone above,
+    # then solve the pair again for the moved post bones (twice: the second
+    # pass corrects the small change the re-solved pair makes)
+    for _ in range(2 if geom.limited else 0):
+        for k in range(k0 + 2, n):
+            rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
+            rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
+            phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
+        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+
+    theta = A0 - phi  # cumulative rotation about +X of each chain joint
+    toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)
+    theta_foot = geom.toe_angle - toe_phi
+    cum = np.concatenate([theta, theta_foot[..., None]], axis=-1)
+    rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)
+    local = matrices_about_axis(0, rel)
+    local[..., 0, :, :] = matrices_about_axis(2, a) @ local[..., 0, :, :]
+    return local, reached

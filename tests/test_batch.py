@@ -13,9 +13,9 @@ import warnings
 import numpy as np
 import pytest
 
+from quadsim.commands import Command, Script
 from quadsim.errors import InputError
 from quadsim.locomotion.batch import BatchController
-from quadsim.commands import Command, Script
 from quadsim.locomotion.controller import ProceduralController
 from quadsim.locomotion.gaits import gait_ids, max_speed
 from quadsim.locomotion.posing import PLAN_FIELDS

@@ -13,9 +13,8 @@ array IK and forward kinematics.
 import numpy as np
 import pytest
 from numba import njit
-from oracles import arc_advance, cpg_step, swing_position
+from oracles import arc_advance, cpg_step, solve_leg, swing_position
 
-from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import matrices_yaw_pitch
 from quadsim.locomotion import bundles as B
 from quadsim.locomotion.controller import ControllerSettings
@@ -163,7 +162,7 @@ def _random_plan(ch, rng, T):
 
 def _reference_pose(ch, poser, plan):
     """The posing written with the array functions: matrices_yaw_pitch,
-    forward_kinematics and solve_leg, leg by leg."""
+    forward_kinematics and the oracle's solve_leg, leg by leg."""
     sk = ch.skeleton
     T, J = len(plan["root"]), sk.n_joints
     L = np.broadcast_to(np.eye(3), (T, J, 3, 3)).copy()
