@@ -40,6 +40,13 @@ from numba import njit
 
 from quadsim.skeleton.character import Character, LegSpec
 
+#: The two-bone pair is never quite straight nor quite folded: its span
+#: stays this far (m) inside ``[|l1 - l2|, l1 + l2]`` (no singular bend).
+PAIR_SLACK = 1e-6
+#: A post joint with no limits in the character file folds within these (rad).
+DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
+#: Largest fold of a post bone (rad).
+MAX_FOLD = math.radians(75.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -129,10 +136,10 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     fold = np.zeros(n)
     for k in range(leg.ik_start + 2, n):
         joint = int(chain[k])
-        lo, hi = character.limits.get(joint, (np.radians(-30.0), np.radians(30.0)))
+        lo, hi = character.limits.get(joint, DEFAULT_FOLD_LIMITS)
         # positive rotation about +X swings the bone backwards: angle -= theta
         big = hi if abs(hi) >= abs(lo) else lo
-        fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, np.radians(75.0))
+        fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, MAX_FOLD)
     foot = sk.names[chain[-1]]
     end = sk.end_sites.get(foot, np.array([0.0, 0.0, 1.0]))
     toe = float(np.arctan2(end[2], -end[1]))
@@ -201,7 +208,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     vd = cd - qd
     vf = cf - qf
     r_true = math.sqrt(vd * vd + vf * vf)
-    r = min(max(r_true, abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
+    r = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), l1 + l2 - PAIR_SLACK)
     cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
     cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)

@@ -39,7 +39,7 @@ from quadsim.errors import InputError, QuadsimClampWarning
 from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
-from quadsim.locomotion.plan_kernels import run_plan, step_constants
+from quadsim.locomotion.plan_kernels import LOOK_PER_BEND, TOE_PER_FOLD, run_plan, step_constants
 from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns
 from quadsim.locomotion.tables import character_plan, stack_states
 from quadsim.locomotion.transition import gait_tables
@@ -321,8 +321,8 @@ class BatchController:
         return {
             "root": root, "heading": mo.heading.copy(), "pitch": out.pitch, "sway": out.sway,
             "bend_yaw": bend, "bend_pitch": spine, "feet": out.feet,
-            "fold": out.fold, "toe": 0.5 * out.fold, "tail": bs.tail.copy(),
-            "look": 0.5 * bend, "contacts": st.feet.stance.copy(),
+            "fold": out.fold, "toe": TOE_PER_FOLD * out.fold, "tail": bs.tail.copy(),
+            "look": LOOK_PER_BEND * bend, "contacts": st.feet.stance.copy(),
             "gait": st.schedule.current.copy(), "phase": out.phase, "speed": mo.speed.copy(),
             "duty": st.schedule.params.duty.copy(), "spine": spine,
             "heading_rate": mo.yaw_rate.copy(),

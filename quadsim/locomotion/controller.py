@@ -48,7 +48,9 @@ from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import STAND, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
     GAIT_HOLD_FACTOR,
+    LOOK_PER_BEND,
     MIN_TURN_SPEED,
+    TOE_PER_FOLD,
     run_plan,
     step_constants,
 )
@@ -307,8 +309,8 @@ class ProceduralController:
             "root": np.array([mo.root_xz[0, 0], bs.height[0], mo.root_xz[0, 2]]),
             "heading": float(mo.heading[0]), "pitch": float(out.pitch[0]),
             "sway": out.sway[0].copy(), "bend_yaw": bend, "bend_pitch": spine,
-            "feet": out.feet[0].copy(), "fold": fold, "toe": 0.5 * fold,
-            "tail": bs.tail[0].copy(), "look": 0.5 * bend,
+            "feet": out.feet[0].copy(), "fold": fold, "toe": TOE_PER_FOLD * fold,
+            "tail": bs.tail[0].copy(), "look": LOOK_PER_BEND * bend,
             "contacts": st.feet.stance[0].copy(), "gait": self._label,
             "phase": out.phase[0].copy(), "speed": float(mo.speed[0]),
             "duty": float(st.schedule.params.duty[0]), "spine": spine,

@@ -27,6 +27,10 @@ CLEARANCE_BASE = 0.3
 #: Touchdown lead: at most this fraction of the stance time ahead of the
 #: touchdown instant (the rest of the reach is the stride's).
 LEAD_STANCE_FRACTION = 0.5
+#: A foot lifts only once its phase has moved this far (rad) past its touchdown.
+MIN_STANCE_PHASE = 1e-9
+#: The touchdown lead's reach term divides by at least this speed (m/s).
+MIN_LEAD_SPEED = 1e-6
 #: A swing has landed once its progress is within this of 1.
 TOUCHDOWN_EPS = 1e-12
 
@@ -69,7 +73,7 @@ def feet_rows(state, scratch, reach, sc, out):
             if stance[n, i]:
                 u = frac(th / TWO_PI)
                 due = dn <= u <= 1.0 - MIN_SWING
-                if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > 1e-9:
+                if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > MIN_STANCE_PHASE:
                     stance[n, i] = False
                     for c in range(3):
                         liftoff[n, i, c] = planted[n, i, c]
@@ -85,7 +89,7 @@ def feet_rows(state, scratch, reach, sc, out):
                          1.0)
                 swing_s[n, i] = max(swing_s[n, i], sp)
         lead = min(LEAD_STANCE_FRACTION * stance_time,
-                   sc.reach_margin * scratch.half_min[n] / max(v[n], 1e-6))
+                   sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
             fold[n, i] = 0.0
             if stance[n, i]:

@@ -17,6 +17,7 @@ from quadsim.commands import Command, Script
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.controller import ControllerSettings, ProceduralController
 from quadsim.locomotion.cpg import TWO_PI
+from quadsim.locomotion.plan_kernels import LOOK_PER_BEND, TOE_PER_FOLD
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
 
@@ -111,8 +112,8 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         amp[k, :4], amp[k, 4] = cpg.r[0], cpg.r_s[0]
         gaits.append(ctl.gait)
     plan = {"root": root, "heading": heading, "pitch": pitch, "sway": sway, "bend_yaw": bend,
-            "bend_pitch": spine, "feet": feet, "fold": fold, "toe": 0.5 * fold, "tail": tail,
-            "look": 0.5 * bend, "contacts": contacts, "phase": np.mod(theta / TWO_PI, 1.0),
+            "bend_pitch": spine, "feet": feet, "fold": fold, "toe": TOE_PER_FOLD * fold, "tail": tail,
+            "look": LOOK_PER_BEND * bend, "contacts": contacts, "phase": np.mod(theta / TWO_PI, 1.0),
             "speed": speed, "duty": duty, "spine": spine, "heading_rate": rate,
             "amplitude": amp, "gait": np.array(gaits, dtype=object)}
     local, root, err = ctl.pose(plan)

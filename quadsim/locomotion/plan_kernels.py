@@ -85,6 +85,12 @@ MIN_BEND_SPEED = 0.3
 #: The bounding gaits keep this much more of the reach margin in hand for
 #: the spine's flexion, which moves the girdles against the feet.
 BOUND_REACH_KEEP = 0.05
+#: Least stride frequency (Hz) a transition's length is taken from, least
+#: duty factor a stride limit divides by, and the speed (m/s) above which
+#: the stride law sets the frequency (below it the gait's least frequency).
+MIN_FREQ = 1e-3
+MIN_DUTY = 1e-3
+MOVING_SPEED = 1e-6
 #: Fold of the toes and yaw of the head: these fractions of the swing fold
 #: and of the spine's bend.
 TOE_PER_FOLD = 0.5
@@ -205,7 +211,7 @@ def schedule_rows(cmd, body, gaits, sc, state):
                 wanted = choice
         else:
             wanted = choice
-        period = 1.0 / max(state.cpg.freq[n], 1e-3)
+        period = 1.0 / max(state.cpg.freq[n], MIN_FREQ)
         advance_schedule(gaits, k, sch, n, wanted, v, sc.dt, period, stand, one)
 
 
@@ -223,11 +229,11 @@ def stride_rows(body, reach, sc, state, scratch):
         for i in range(4):
             half = min(half, interp_col(pd, reach.drops, reach.half_sweep, n, i))
         margin = sc.reach_margin - BOUND_REACH_KEEP * p.bound[n]
-        limit = 2.0 * margin * half / max(p.duty[n], 1e-3)
+        limit = 2.0 * margin * half / max(p.duty[n], MIN_DUTY)
         minv, coef = p.min_speed[n], p.stride_coefficient[n]
         lam = min(stride_length(minv, coef, v, h), limit)
         lam_min = min(stride_length(minv, coef, minv, h), limit)
-        if v > 1e-6:
+        if v > MOVING_SPEED:
             cpg.freq[n] = max(v / lam, minv / lam_min)
         else:
             cpg.freq[n] = minv / lam_min
