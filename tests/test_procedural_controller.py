@@ -11,11 +11,14 @@ change 1.5 strides within [0.5, 2] s.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
 from quadsim.commands import Command
 from quadsim.controller import Controller, Frame
+from quadsim.errors import QuadsimClampWarning
 from quadsim.locomotion import ProceduralController
 from quadsim.locomotion.gaits import STAND, gait_ids, gait_names, gait_table
 from quadsim.locomotion.tables import standing
@@ -70,9 +73,13 @@ def test_step_returns_a_read_only_frame_with_the_procedural_extras():
 def test_a_requested_gait_is_held_up_to_its_cap_and_the_cap_is_what_the_step_applies():
     ctl = ProceduralController(load_character("leopard"), gait="trot")
     cap = ctl.gait_speed_cap("trot")
-    with pytest.warns(Warning, match="clamped"):
+    cmd = Command(speed=50.0, gait="trot")
+    with pytest.warns(QuadsimClampWarning, match="clamped"):
+        f = ctl.step(cmd)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # said once: no more warnings
         for _ in range(600):
-            f = ctl.step(Command(speed=50.0, gait="trot"))
+            f = ctl.step(cmd)
     assert f.gait == "trot" and f.speed == pytest.approx(cap, rel=1e-6)
 
 
