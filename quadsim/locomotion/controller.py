@@ -51,6 +51,7 @@ from quadsim.locomotion.plan_kernels import (
     LOOK_PER_BEND,
     MIN_TURN_SPEED,
     TOE_PER_FOLD,
+    PlanRunner,
     run_plan,
     step_constants,
 )
@@ -168,6 +169,7 @@ class ProceduralController:
                                 np.zeros(1, dtype=np.int64))
         self._gait_ids: dict[str, tuple[str, int]] = {}
         self._warned: set[tuple] = set()
+        self._runner = PlanRunner()
         self._label = self._current_label()
 
     # the state, read from the compiled plan's row
@@ -259,7 +261,8 @@ class ProceduralController:
             c.turn_rate[0] = 0.0
         p = self.plan
         out = run_plan(c, p.body, p.tables, self._reach, sc, self._s,
-                       packed_columns=self._packed_columns if packed else 0)
+                       packed_columns=self._packed_columns if packed else 0,
+                       runner=self._runner)
         if out.gait_speed_clamped[0] or out.speed_clamped[0] or out.turn_clamped[0]:
             self._clamp_warnings(command, gait_name, out)
         self._label = self._current_label()

@@ -119,44 +119,61 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     st, mo, sch = state.feet, state.motion, state.schedule
     stand = gaits.speed_lo.shape[1] - 1
     room = np.empty(4)
-    keys, kh = scratch.keys, scratch.key_heading
-    for n in range(mo.speed.shape[0]):
-        k = body.kind[n]
-        vc = cmd.speed[n]
-        g = cmd.gait[n]
-        out.gait_speed_clamped[n] = False
-        out.speed_clamped[n] = False
-        out.turn_clamped[n] = False
+    # every array bound once: an attribute of a bundle read in a loop costs
+    # a reference count each time
+    keys, kh, v_before = scratch.keys, scratch.key_heading, scratch.v_before
+    c_speed, c_gait, c_turn, c_head = cmd.speed, cmd.gait, cmd.turn_rate, cmd.heading
+    kind, speed_hi = body.kind, gaits.speed_hi
+    max_speed, start_speed, max_turn = body.max_speed, body.start_speed, body.max_turn_rate
+    hind_z, body_length, hip, r_min = (body.hind_z, body.body_length, body.hip_height,
+                                       body.min_turn_radius)
+    o_gait, o_speed, o_turn = out.gait_speed_clamped, out.speed_clamped, out.turn_clamped
+    o_fast, o_rate = out.clamp_speed, out.clamp_rate
+    current, in_transition, source_name = sch.current, sch.in_transition, sch.source_name
+    elapsed, duration = sch.elapsed, sch.duration
+    p_drop, p_duty = sch.params.drop, sch.params.duty
+    drops_now, drops, sweep_min = state.body.drops_now, reach.drops, reach.sweep_min
+    foot_offset, planted, stance = reach.foot_offset, st.planted, st.stance
+    theta, freq = state.cpg.theta, state.cpg.freq
+    speed, heading, bend, root_xz, yaw_rate = mo.speed, mo.heading, mo.bend, mo.root_xz, \
+        mo.yaw_rate
+    vault, dt, a_turn = sc.vault, sc.dt, sc.a_turn
+    acc = sc.acceleration * sc.dt
+    for n in range(speed.shape[0]):
+        k = kind[n]
+        vc = c_speed[n]
+        g = c_gait[n]
+        o_gait[n] = False
+        o_speed[n] = False
+        o_turn[n] = False
         if g >= 0:
-            cap = GAIT_HOLD_FACTOR * gaits.speed_hi[k, g]
+            cap = GAIT_HOLD_FACTOR * speed_hi[k, g]
             if vc > cap:
-                out.gait_speed_clamped[n] = True
+                o_gait[n] = True
                 vc = cap
-        if vc > body.max_speed[n]:
-            out.speed_clamped[n] = True
-            vc = body.max_speed[n]
-        cur = sch.current[n]
-        in_tr = sch.in_transition[n]
-        if cur == stand or (in_tr and sch.source_name[n] == stand):
-            progress = min(sch.elapsed[n] / sch.duration[n], 1.0) if in_tr else 0.0
-            vc = min(vc, max(progress, 0.0) ** 2 * body.start_speed[n])
+        if vc > max_speed[n]:
+            o_speed[n] = True
+            vc = max_speed[n]
+        cur = current[n]
+        in_tr = in_transition[n]
+        if cur == stand or (in_tr and source_name[n] == stand):
+            progress = min(elapsed[n] / duration[n], 1.0) if in_tr else 0.0
+            vc = min(vc, max(progress, 0.0) ** 2 * start_speed[n])
         # the reach governor: no planted foot out of reach before it lifts
-        keys_row(mo.root_xz, mo.heading[n], mo.bend[n], body.hind_z[n], body.body_length[n],
-                 keys, kh, n)
-        pd = sch.params.drop[n] + sc.vault
-        dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
-        base = interp_row(max(pd, dmax), reach.drops, reach.sweep_min, n)
-        room_row(keys, kh, reach.foot_offset, st.planted, base, room, n)
-        duty = sch.params.duty[n]
+        keys_row(root_xz, heading[n], bend[n], hind_z[n], body_length[n], keys, kh, n)
+        pd = p_drop[n] + vault
+        dmax = max(drops_now[n, 0], drops_now[n, 1])
+        base = interp_row(max(pd, dmax), drops, sweep_min, n)
+        room_row(keys, kh, foot_offset, planted, base, room, n)
+        duty = p_duty[n]
         gov = math.inf
         for i in range(4):
-            if not st.stance[n, i]:
+            if not stance[n, i]:
                 continue
-            u = frac(state.cpg.theta[n, i] / TWO_PI)
+            u = frac(theta[n, i] / TWO_PI)
             lifts = u < duty and 1.0 - MIN_SWING >= duty
-            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) \
-                / state.cpg.freq[n]
-            den = max(t_lo, sc.dt)
+            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / freq[n]
+            den = max(t_lo, dt)
             num = max(room[i], 0.0)
             if den == 0.0:
                 if num == 0.0:
@@ -166,24 +183,22 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             gov = min(gov, num / den)
         if gov < vc:  # noqa: PLR1730 -- not min(): a NaN governor leaves vc as it is
             vc = gov
-        acc = sc.acceleration * sc.dt
-        dv = min(max(vc - mo.speed[n], -acc), acc)
-        scratch.v_before[n] = mo.speed[n]
-        v = max(mo.speed[n] + dv, 0.0)
-        mo.speed[n] = v
+        dv = min(max(vc - speed[n], -acc), acc)
+        v_before[n] = speed[n]
+        v = max(speed[n] + dv, 0.0)
+        speed[n] = v
         fast = max(v, vc)
-        max_rate = min(body.max_turn_rate[n],
-                       max(fast, MIN_TURN_SPEED * body.hip_height[n]) / body.min_turn_radius[n])
-        out.clamp_speed[n] = fast
-        out.clamp_rate[n] = max_rate
-        if not math.isnan(cmd.heading[n]):
-            rate = steer_rate(mo.heading[n], cmd.heading[n], max_rate, HEADING_GAIN)
+        max_rate = min(max_turn[n], max(fast, MIN_TURN_SPEED * hip[n]) / r_min[n])
+        o_fast[n] = fast
+        o_rate[n] = max_rate
+        if not math.isnan(c_head[n]):
+            rate = steer_rate(heading[n], c_head[n], max_rate, HEADING_GAIN)
         else:
-            rate = cmd.turn_rate[n]
+            rate = c_turn[n]
             if abs(rate) > max_rate:
-                out.turn_clamped[n] = True
+                o_turn[n] = True
                 rate = math.copysign(max_rate, rate)
-        mo.yaw_rate[n] += (rate - mo.yaw_rate[n]) * sc.a_turn
+        yaw_rate[n] += (rate - yaw_rate[n]) * a_turn
 
 
 @inner
@@ -197,22 +212,27 @@ def schedule_rows(cmd, body, gaits, sc, state):
     """
     sch, mo = state.schedule, state.motion
     stand = gaits.speed_lo.shape[1] - 1
-    one = gait_rows(1)
-    for n in range(mo.speed.shape[0]):
-        k = body.kind[n]
-        v = mo.speed[n]
-        g = cmd.gait[n]
-        choice = auto_choice(gaits, k, sch.current[n], v, body.hysteresis[n])
-        if cmd.speed[n] <= HALT_SPEED and v <= body.stand_speed[n]:
-            wanted = stand
+    speed, current, kind = mo.speed, sch.current, body.kind
+    c_speed, c_gait, freq = cmd.speed, cmd.gait, state.cpg.freq
+    hysteresis, stand_speed, speed_hi = body.hysteresis, body.stand_speed, gaits.speed_hi
+    N = speed.shape[0]
+    wanted = np.empty(N, dtype=np.int64)
+    period = np.empty(N)
+    for n in range(N):
+        k = kind[n]
+        v = speed[n]
+        g = c_gait[n]
+        choice = auto_choice(gaits, k, current[n], v, hysteresis[n])
+        if c_speed[n] <= HALT_SPEED and v <= stand_speed[n]:
+            wanted[n] = stand
         elif g >= 0:
-            wanted = g
-            if v > GAIT_HOLD_FACTOR * gaits.speed_hi[k, g]:
-                wanted = choice
+            wanted[n] = g
+            if v > GAIT_HOLD_FACTOR * speed_hi[k, g]:
+                wanted[n] = choice
         else:
-            wanted = choice
-        period = 1.0 / max(state.cpg.freq[n], MIN_FREQ)
-        advance_schedule(gaits, k, sch, n, wanted, v, sc.dt, period, stand, one)
+            wanted[n] = choice
+        period[n] = 1.0 / max(freq[n], MIN_FREQ)
+    advance_schedule(gaits, kind, sch, wanted, speed, sc.dt, period, stand, gait_rows(1))
 
 
 @inner
@@ -271,6 +291,7 @@ def path_rows(body, gaits, reach, sc, state, scratch):
     room = np.empty(4)
     one = gait_rows(1)
     dt = sc.dt
+    kind, current = body.kind, state.schedule.current
     for n in range(mo.speed.shape[0]):
         h = body.hip_height[n]
         v = mo.speed[n]
@@ -286,7 +307,7 @@ def path_rows(body, gaits, reach, sc, state, scratch):
         mo.bend[n] += (bt - mo.bend[n]) * sc.a_bend
         keys_row(mo.root_xz, mo.heading[n], mo.bend[n], body.hind_z[n], body.body_length[n],
                  scratch.keys, scratch.key_heading, n)
-        target_into(gaits, body.kind[n], state.schedule.current[n], v, one, 0)
+        target_into(gaits, kind[n], current[n], v, one, 0)
         scratch.final_duty[n] = one.duty[0]
         pd = p.drop[n] + sc.vault
         dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
@@ -379,16 +400,44 @@ def step_constants(settings, dt: float) -> StepConstants:
         spine_coupling=float(c.spine_coupling), substeps=int(c.substeps))
 
 
+class PlanRunner:
+    """:func:`plan_rows` on fixed bundles, called through its compiled entry.
+
+    Finding the argument types of a call (numba's dispatch) costs more than
+    a one-row step itself for bundles of some thirty arrays; the types of a
+    controller's bundles never change, so they are found once and the
+    compiled entry point is called directly after.
+    """
+
+    def __init__(self):
+        self._entry = None
+        self._types = None
+
+    def __deepcopy__(self, memo):  # shareable: it holds no state of a controller
+        return self
+
+    def __call__(self, *args) -> None:
+        if self._entry is None:
+            from numba import typeof
+
+            plan_rows(*args)  # compiles or loads the kernel for these types
+            self._types = tuple(typeof(a) for a in args)
+            self._entry = plan_rows.overloads[self._types].entry_point
+            return
+        self._entry(*args)
+
+
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
-             packed_columns: int = 0) -> PlanOutputs:
+             packed_columns: int = 0, runner: PlanRunner | None = None) -> PlanOutputs:
     """:func:`plan_rows`, or, if ``parallel``, :func:`plan_rows` on blocks of
     rows on threads (:func:`~quadsim.locomotion.blocks.run_blocks`: the same
     result); returns the step's outputs, the plans packed for the posing if
-    ``packed_columns``."""
+    ``packed_columns``. ``runner`` (bundles of unchanging types only) skips
+    the dispatch."""
     n = state.motion.speed.shape[0]
     out = plan_outputs(n, packed_columns)
     if not parallel:
-        plan_rows(cmd, body, gaits, reach, sc, state, out)
+        (runner or plan_rows)(cmd, body, gaits, reach, sc, state, out)
         return out
 
     def block(a, e):

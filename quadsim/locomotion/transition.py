@@ -9,7 +9,7 @@ the circle), the stride law, the swing height and the spine mode, so the
 CPG re-phases the legs smoothly; any two gaits can follow each other, at any
 phase of the stride.
 
-The compiled row functions here (:func:`target_into`, :func:`blend_into`,
+The compiled functions here (:func:`target_into`, :func:`blend_into`,
 :func:`auto_choice`, :func:`advance_schedule`) are the scheduler stage of the
 plan (:func:`quadsim.locomotion.plan_kernels.plan_rows`). :class:`GaitParams`
 and :class:`GaitScheduler` are their one-row Python faces: the tests drive
@@ -27,7 +27,6 @@ from numba import njit
 
 from quadsim.locomotion.bundles import GaitRows, GaitTables, ScheduleState, gait_rows
 from quadsim.locomotion.gaits import STAND, Gait
-from quadsim.locomotion.rowmath import inner
 
 #: Length of the transition out of standing (s): setting off is quicker
 #: than a change between two gaits.
@@ -43,7 +42,7 @@ MAX_TRANSITION_TIME = 2.0
 HYSTERESIS = 0.06
 
 
-@inner
+@njit(cache=True)
 def _frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float, without the library ``fmod`` call."""
@@ -89,18 +88,18 @@ def blend_into(src, n, out, m, s):
         out.spine_amplitude[m] - src.spine_amplitude[n])
 
 
-@inner
-def scheduled_into(tables, k, sched, n, speed, out, m):
-    """The blended parameters of row ``n`` of the scheduler ``sched`` at
-    ``speed`` into row ``m`` of ``out``: the current gait's, moved from the
-    transition's start by the progress ``(elapsed / duration)^2``."""
-    target_into(tables, k, sched.current[n], speed, out, m)
-    if sched.in_transition[n]:
-        s = min(sched.elapsed[n] / sched.duration[n], 1.0) ** 2
-        blend_into(sched.source, n, out, m, s)
+@njit(cache=True)
+def scheduled_into(tables, k, g, in_tr, elapsed, duration, source, n, speed, out, m):
+    """The blended parameters of gait ``g`` of kind ``k`` at ``speed`` into row
+    ``m`` of ``out``: during a transition (``in_tr``) moved from row ``n`` of
+    its start ``source`` by the progress ``(elapsed / duration)^2``."""
+    target_into(tables, k, g, speed, out, m)
+    if in_tr:
+        s = min(elapsed / duration, 1.0) ** 2
+        blend_into(source, n, out, m, s)
 
 
-@inner
+@njit(cache=True)
 def auto_choice(tables, k, current, speed, hysteresis):
     """The automatic gait id of kind ``k`` for ``speed`` (m/s), keeping
     ``current`` while the speed is inside its band widened by ``hysteresis``."""
@@ -118,34 +117,45 @@ def auto_choice(tables, k, current, speed, hysteresis):
     return tables.auto[k, idx]
 
 
-@inner
-def advance_schedule(tables, k, sched, n, wanted, speed, dt, period, stand, scratch):
-    """One step of row ``n`` of the scheduler: the running transition
-    advances by ``dt`` (s); if ``wanted`` differs from the current gait a
-    transition to it starts from the parameters now (lasting
+@njit(cache=True)
+def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scratch):
+    """One step of every row ``n`` of the scheduler ``sched``: the running
+    transition advances by ``dt`` (s); if ``wanted[n]`` differs from the
+    current gait a transition to it starts from the parameters now (lasting
     :data:`STAND_TRANSITION_TIME` out of the standing state ``stand``, else
-    :data:`TRANSITION_STRIDES` stride ``period`` s, within
+    :data:`TRANSITION_STRIDES` stride periods ``period[n]`` s, within
     [:data:`MIN_TRANSITION_TIME`, :data:`MAX_TRANSITION_TIME`]); then the
-    parameters at ``speed`` go into ``sched.params[n]``. ``scratch`` is a
-    one-row :class:`~quadsim.locomotion.bundles.GaitRows`."""
-    cur = sched.current[n]
-    if sched.in_transition[n]:
-        sched.elapsed[n] += dt
-        if sched.elapsed[n] >= sched.duration[n]:
-            sched.in_transition[n] = False
-    if wanted != cur:
-        scheduled_into(tables, k, sched, n, speed, scratch, 0)
-        _copy_row(scratch, 0, sched.source, n)
-        sched.source_name[n] = cur
-        sched.current[n] = wanted
-        sched.in_transition[n] = True
-        sched.elapsed[n] = 0.0
-        sched.duration[n] = STAND_TRANSITION_TIME if cur == stand else min(
-            max(TRANSITION_STRIDES * period, MIN_TRANSITION_TIME), MAX_TRANSITION_TIME)
-    scheduled_into(tables, k, sched, n, speed, sched.params, n)
+    parameters at ``speed[n]`` (m/s) go into ``sched.params[n]``. ``kinds``
+    (N,) index ``tables``; ``scratch`` is a one-row
+    :class:`~quadsim.locomotion.bundles.GaitRows`.
+    """
+    current, source_name, in_transition = sched.current, sched.source_name, sched.in_transition
+    elapsed, duration, source, params = sched.elapsed, sched.duration, sched.source, \
+        sched.params
+    for n in range(current.shape[0]):
+        k = kinds[n]
+        cur = current[n]
+        v = speed[n]
+        if in_transition[n]:
+            elapsed[n] += dt
+            if elapsed[n] >= duration[n]:
+                in_transition[n] = False
+        w = wanted[n]
+        if w != cur:
+            scheduled_into(tables, k, cur, in_transition[n], elapsed[n], duration[n], source, n,
+                           v, scratch, 0)
+            _copy_row(scratch, 0, source, n)
+            source_name[n] = cur
+            current[n] = w
+            in_transition[n] = True
+            elapsed[n] = 0.0
+            duration[n] = STAND_TRANSITION_TIME if cur == stand else min(
+                max(TRANSITION_STRIDES * period[n], MIN_TRANSITION_TIME), MAX_TRANSITION_TIME)
+        scheduled_into(tables, k, current[n], in_transition[n], elapsed[n], duration[n], source,
+                       n, v, params, n)
 
 
-@inner
+@njit(cache=True)
 def _copy_row(src, n, out, m):
     out.duty[m] = src.duty[n]
     for i in range(4):
@@ -160,7 +170,8 @@ def _copy_row(src, n, out, m):
 
 @njit(cache=True)
 def _scheduler_step(tables, sched, wanted, speed, dt, period, stand, scratch):
-    advance_schedule(tables, 0, sched, 0, wanted, speed, dt, period, stand, scratch)
+    advance_schedule(tables, np.zeros(1, dtype=np.int64), sched, np.array([wanted]),
+                     np.array([speed]), dt, np.array([period]), stand, scratch)
 
 
 @njit(cache=True)
