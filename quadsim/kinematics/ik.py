@@ -158,7 +158,7 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     )
 
 
-_inner = njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+_inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 
 def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -240,7 +240,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
     """The legs' IK, compiled: each leg of ``legs`` (:func:`pack_legs`) in
     rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
     and position ``positions[t, p]`` (m), to the target, swing fold and toe
-    pitch in the columns ``cols = (target, fold, toe)`` of ``plan[t]`` (leg
+    pitch in the columns ``cols = [target, fold, toe]`` (int array) of ``plan[t]`` (leg
     ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``): writes the chains'
     local rotations ``local[t, j]`` and the misses ``err[t, i]`` (m).
 
@@ -251,7 +251,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
     a pass that does (the joint limits rarely bind in a stride).
     """
     leg_int, leg_top, leg_bones, leg_scal = legs
-    FEET, FOLD, TOE = cols
+    FEET, FOLD, TOE = cols[0], cols[1], cols[2]
     n_max = leg_bones.shape[2]
     phi = np.empty(n_max)
     cphi = np.empty(n_max)
@@ -431,6 +431,6 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
 
 @njit(cache=True)
 def _solve_rows(plan, legs, G, P, local, err):
-    leg_rows(plan, (0, 3, 4), 0, plan.shape[0], legs, G, P, local, err)
+    leg_rows(plan, np.array([0, 3, 4]), np.int64(0), plan.shape[0], legs, G, P, local, err)
 
 

@@ -36,10 +36,17 @@ import numpy as np
 
 from quadsim.commands import Command
 from quadsim.errors import InputError, QuadsimClampWarning
+from quadsim.locomotion.blocks import FixedEntry
 from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
-from quadsim.locomotion.plan_kernels import LOOK_PER_BEND, TOE_PER_FOLD, run_plan, step_constants
+from quadsim.locomotion.plan_kernels import (
+    LOOK_PER_BEND,
+    TOE_PER_FOLD,
+    plan_rows,
+    run_plan,
+    step_constants,
+)
 from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns
 from quadsim.locomotion.tables import character_plan, stack_states
 from quadsim.locomotion.transition import gait_tables
@@ -134,6 +141,7 @@ class BatchController:
             np.ascontiguousarray(np.concatenate(f)[k]) for f in list(zip(*reach))[1:]))
         self._n_tail_max = max(len(x.character.tail) for x in kd)
         self._sc: dict[float, object] = {}
+        self._runner = FixedEntry(plan_rows)  # the bundles' types never change
 
     def _init_state(self, chars, seeds, gaits) -> None:
         rows = []
@@ -301,7 +309,8 @@ class BatchController:
         # (blocks.run_blocks): the same result whatever the number of threads.
         cmd = CommandRows(v_cmd, turn, head, gait)
         out = run_plan(cmd, self._body, self._tables, self._reach, sc, self.state,
-                       parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns)
+                       parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns,
+                       runner=self._runner)
         if out.gait_speed_clamped.any():
             self._warn("gait_speed", out.gait_speed_clamped, v_cmd,
                        "speed above what the requested gait reaches")

@@ -19,13 +19,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import njit
 
 from quadsim.locomotion.rowmath import inner
 
 __all__ = ["BodyConstants", "BodyState", "CommandRows", "CpgState", "FeetState", "GaitRows",
            "GaitTables", "MotionState", "PlanOutputs", "PlanState", "ReachTables",
-           "ScheduleState", "StepConstants", "StepScratch", "gait_rows", "plan_outputs",
+           "ScheduleState", "StepConstants", "StepScratch", "gait_rows", "new_gait_rows",
+           "plan_outputs",
            "step_scratch", "take_rows"]
 
 
@@ -214,7 +214,14 @@ class PlanOutputs(NamedTuple):
     clamp_rate: np.ndarray       #: (N,) the turn limit (rad/s)
 
 
-@njit(cache=True)
+def new_gait_rows(n: int) -> GaitRows:
+    """An empty :class:`GaitRows` of ``n`` rows (in Python; :func:`gait_rows`
+    in compiled code)."""
+    return GaitRows(np.zeros(n), np.zeros((n, 4)), np.zeros(n), np.zeros(n), np.zeros(n),
+                    np.zeros(n), np.zeros(n), np.zeros(n))
+
+
+@inner
 def gait_rows(n):
     """An empty :class:`GaitRows` of ``n`` rows."""
     return GaitRows(np.zeros(n), np.zeros((n, 4)), np.zeros(n), np.zeros(n), np.zeros(n),

@@ -43,6 +43,7 @@ import numpy as np
 from quadsim.commands import Command
 from quadsim.controller import Frame
 from quadsim.errors import QuadsimClampWarning
+from quadsim.locomotion.blocks import FixedEntry
 from quadsim.locomotion.bundles import CommandRows, PlanOutputs
 from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import STAND, resolve_gait_name
@@ -51,7 +52,7 @@ from quadsim.locomotion.plan_kernels import (
     LOOK_PER_BEND,
     MIN_TURN_SPEED,
     TOE_PER_FOLD,
-    PlanRunner,
+    plan_rows,
     run_plan,
     step_constants,
 )
@@ -169,7 +170,7 @@ class ProceduralController:
                                 np.zeros(1, dtype=np.int64))
         self._gait_ids: dict[str, tuple[str, int]] = {}
         self._warned: set[tuple] = set()
-        self._runner = PlanRunner()
+        self._runner = FixedEntry(plan_rows)
         self._label = self._current_label()
 
     # the state, read from the compiled plan's row

@@ -34,7 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.blocks import run_blocks
+from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.body import body_rows
 from quadsim.locomotion.bundles import (
     PlanOutputs,
@@ -400,49 +400,25 @@ def step_constants(settings, dt: float) -> StepConstants:
         spine_coupling=float(c.spine_coupling), substeps=int(c.substeps))
 
 
-class PlanRunner:
-    """:func:`plan_rows` on fixed bundles, called through its compiled entry.
-
-    Finding the argument types of a call (numba's dispatch) costs more than
-    a one-row step itself for bundles of some thirty arrays; the types of a
-    controller's bundles never change, so they are found once and the
-    compiled entry point is called directly after.
-    """
-
-    def __init__(self):
-        self._entry = None
-        self._types = None
-
-    def __deepcopy__(self, memo):  # shareable: it holds no state of a controller
-        return self
-
-    def __call__(self, *args) -> None:
-        if self._entry is None:
-            from numba import typeof
-
-            plan_rows(*args)  # compiles or loads the kernel for these types
-            self._types = tuple(typeof(a) for a in args)
-            self._entry = plan_rows.overloads[self._types].entry_point
-            return
-        self._entry(*args)
-
-
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
-             packed_columns: int = 0, runner: PlanRunner | None = None) -> PlanOutputs:
+             packed_columns: int = 0, runner: FixedEntry | None = None) -> PlanOutputs:
     """:func:`plan_rows`, or, if ``parallel``, :func:`plan_rows` on blocks of
     rows on threads (:func:`~quadsim.locomotion.blocks.run_blocks`: the same
     result); returns the step's outputs, the plans packed for the posing if
-    ``packed_columns``. ``runner`` (bundles of unchanging types only) skips
-    the dispatch."""
+    ``packed_columns``. ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry`
+    of :func:`plan_rows` for bundles whose types never change, skips numba's
+    dispatch."""
     n = state.motion.speed.shape[0]
     out = plan_outputs(n, packed_columns)
     if not parallel:
         (runner or plan_rows)(cmd, body, gaits, reach, sc, state, out)
         return out
 
+    kernel = runner or plan_rows  # the blocks' slices have the whole arrays' types
+
     def block(a, e):
         rows = slice(a, e)
-        plan_rows(take_rows(cmd, rows), take_rows(body, rows), gaits,
+        kernel(take_rows(cmd, rows), take_rows(body, rows), gaits,
                   reach._replace(half_sweep=reach.half_sweep[rows],
                                  sweep_min=reach.sweep_min[rows],
                                  sweep_cols=reach.sweep_cols[rows],

@@ -355,6 +355,8 @@ def pose_rows(plan, rig, local, positions, err):
     """
     parents, offsets, spine, tail, neck, trunk, thorax = rig[:7]
     leg_int, leg_top, leg_bones, leg_scal = rig[7:]
+    legs = (leg_int, leg_top, leg_bones, leg_scal)
+    cols = np.array([FEET, FOLD, TOE])  # an array: solve_leg's call shares the compiled IK
     T = plan.shape[0]
     G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
     how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
@@ -362,8 +364,7 @@ def pose_rows(plan, rig, local, positions, err):
         b = min(T, a + CHUNK)
         _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
                     local, positions, G)
-        leg_rows(plan, (FEET, FOLD, TOE), a, b, (leg_int, leg_top, leg_bones, leg_scal), G,
-                 positions, local, err)
+        leg_rows(plan, cols, a, b, legs, G, positions, local, err)
         _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 
 

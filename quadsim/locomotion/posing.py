@@ -17,7 +17,7 @@ from functools import cached_property
 import numpy as np
 
 from quadsim.kinematics.ik import LegGeometry, leg_geometry
-from quadsim.locomotion.blocks import run_blocks
+from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.pose_kernel import (
     PARALLEL_ROWS,
     PoseRig,
@@ -119,13 +119,20 @@ class Poser:
         positions = np.empty((T, J, 3))
         err = np.empty((T, 4))
         rows = np.ascontiguousarray(rows, dtype=float)
-        rig = self.rig
+        if not rows.flags.writeable:  # the one array type the entry is called with
+            rows = rows.copy()
+        rig, kernel = self.rig, self._entry
         if T >= PARALLEL_ROWS:  # blocks of rows on threads: the same result
-            run_blocks(lambda a, e: pose_rows(rows[a:e], rig, local[a:e], positions[a:e],
-                                              err[a:e]), T)
+            run_blocks(lambda a, e: kernel(rows[a:e], rig, local[a:e], positions[a:e],
+                                           err[a:e]), T)
         else:
-            pose_rows(rows, rig, local, positions, err)
+            kernel(rows, rig, local, positions, err)
         return local, positions, err
+
+    @cached_property
+    def _entry(self) -> FixedEntry:
+        """:func:`pose_rows` called for this character's arrays, skipping the dispatch."""
+        return FixedEntry(pose_rows)
 
     @cached_property
     def rig(self) -> PoseRig:

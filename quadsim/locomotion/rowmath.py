@@ -18,7 +18,7 @@ from quadsim.frames import GRAVITY
 #: numba builds it no Python entry point (the entry of a function of large
 #: bundles costs more to compile than its body), so calling it from Python
 #: crashes. Each stage and helper of the plan and the posing is one.
-inner = njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12

@@ -24,17 +24,18 @@ from quadsim.locomotion.bundles import (
     BodyState,
     CpgState,
     FeetState,
+    GaitRows,
     GaitTables,
     MotionState,
     PlanState,
     ReachTables,
     ScheduleState,
-    gait_rows,
+    new_gait_rows,
 )
 from quadsim.locomotion.cpg import TWO_PI
 from quadsim.locomotion.gaits import STAND, Gait, auto_gaits, gait_ids, gait_table, max_speed
 from quadsim.locomotion.posing import Poser
-from quadsim.locomotion.transition import HYSTERESIS, gait_tables, target_into
+from quadsim.locomotion.transition import HYSTERESIS, gait_tables
 from quadsim.skeleton.character import Character
 
 #: Body drops (fractions of the pelvis height) at which each leg's reach is measured.
@@ -165,15 +166,20 @@ class CharacterPlan:
         feet = ch.rest_foot_positions().copy()
         feet[:, Y] = 0.0
         g = self.ids.index(start)
-        params = gait_rows(1)
-        target_into(self.tables, 0, g, 0.0, params, 0)
+        # the gait's parameters at speed 0: the duty factor at the slow end
+        # (target_into's line at s = 0, exactly)
+        t = self.tables
+        params = GaitRows(t.duty_lo[0, g:g + 1].copy(), t.phases[0, g:g + 1].copy(),
+                          *(np.array([f[0, g]]) for f in (t.stride_coefficient, t.speed_lo,
+                                                          t.swing_height, t.drop, t.bound,
+                                                          t.spine_amplitude)))
         theta = theta[None].astype(float)
         return PlanState(
             MotionState(np.zeros(1), np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.zeros(1)),
             CpgState(theta, r[None].astype(float), np.array([float(theta_s)]), np.ones(1),
                      np.ones(1)),
             ScheduleState(np.array([g], dtype=np.int64), np.array([g], dtype=np.int64),
-                          np.zeros(1, dtype=bool), np.zeros(1), np.zeros(1), gait_rows(1),
+                          np.zeros(1, dtype=bool), np.zeros(1), np.zeros(1), new_gait_rows(1),
                           params),
             FeetState(np.ones((1, 4), dtype=bool), np.zeros((1, 4)), theta.copy(),
                       theta.copy(), feet[None].copy(), feet[None].copy()),

@@ -25,8 +25,9 @@ from itertools import pairwise
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.bundles import GaitRows, GaitTables, ScheduleState, gait_rows
+from quadsim.locomotion.bundles import GaitRows, GaitTables, ScheduleState, new_gait_rows
 from quadsim.locomotion.gaits import STAND, Gait
+from quadsim.locomotion.rowmath import inner
 
 #: Length of the transition out of standing (s): setting off is quicker
 #: than a change between two gaits.
@@ -42,14 +43,14 @@ MAX_TRANSITION_TIME = 2.0
 HYSTERESIS = 0.06
 
 
-@njit(cache=True)
+@inner
 def _frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float, without the library ``fmod`` call."""
     return x - math.floor(x)
 
 
-@njit(cache=True)
+@inner
 def target_into(tables, k, g, speed, out, m):
     """``GaitParams.of`` gait ``g`` of kind ``k`` at ``speed`` (m/s) into row
     ``m`` of ``out`` (:class:`~quadsim.locomotion.bundles.GaitRows`): the
@@ -68,7 +69,7 @@ def target_into(tables, k, g, speed, out, m):
     out.spine_amplitude[m] = tables.spine_amplitude[k, g]
 
 
-@njit(cache=True)
+@inner
 def blend_into(src, n, out, m, s):
     """Row ``m`` of ``out`` moved a fraction ``s`` of the way from row ``n`` of
     ``src`` (in place): every parameter linearly, the phases along the
@@ -88,7 +89,7 @@ def blend_into(src, n, out, m, s):
         out.spine_amplitude[m] - src.spine_amplitude[n])
 
 
-@njit(cache=True)
+@inner
 def scheduled_into(tables, k, g, in_tr, elapsed, duration, source, n, speed, out, m):
     """The blended parameters of gait ``g`` of kind ``k`` at ``speed`` into row
     ``m`` of ``out``: during a transition (``in_tr``) moved from row ``n`` of
@@ -99,7 +100,7 @@ def scheduled_into(tables, k, g, in_tr, elapsed, duration, source, n, speed, out
         blend_into(source, n, out, m, s)
 
 
-@njit(cache=True)
+@inner
 def auto_choice(tables, k, current, speed, hysteresis):
     """The automatic gait id of kind ``k`` for ``speed`` (m/s), keeping
     ``current`` while the speed is inside its band widened by ``hysteresis``."""
@@ -117,7 +118,7 @@ def auto_choice(tables, k, current, speed, hysteresis):
     return tables.auto[k, idx]
 
 
-@njit(cache=True)
+@inner
 def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scratch):
     """One step of every row ``n`` of the scheduler ``sched``: the running
     transition advances by ``dt`` (s); if ``wanted[n]`` differs from the
@@ -155,7 +156,7 @@ def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scr
                        n, v, params, n)
 
 
-@njit(cache=True)
+@inner
 def _copy_row(src, n, out, m):
     out.duty[m] = src.duty[n]
     for i in range(4):
@@ -172,6 +173,16 @@ def _copy_row(src, n, out, m):
 def _scheduler_step(tables, sched, wanted, speed, dt, period, stand, scratch):
     advance_schedule(tables, np.zeros(1, dtype=np.int64), sched, np.array([wanted]),
                      np.array([speed]), dt, np.array([period]), stand, scratch)
+
+
+@njit(cache=True)
+def _target(tables, g, speed, out):
+    target_into(tables, 0, g, speed, out, 0)
+
+
+@njit(cache=True)
+def _blend(src, out, s):
+    blend_into(src, 0, out, 0, s)
 
 
 @njit(cache=True)
@@ -257,9 +268,9 @@ class GaitParams:
     @classmethod
     def of(cls, gait: Gait, speed: float) -> GaitParams:
         """The parameters of ``gait`` at ``speed`` (m/s), by :func:`target_into`."""
-        rows = gait_rows(1)
-        target_into(gait_tables([({gait.name: gait}, [gait.name])], (gait.name,)), 0, 0,
-                    float(speed), rows, 0)
+        rows = new_gait_rows(1)
+        _target(gait_tables([({gait.name: gait}, [gait.name])], (gait.name,)), 0, float(speed),
+                rows)
         return cls.from_rows(rows, 0)
 
     @classmethod
@@ -278,7 +289,7 @@ class GaitParams:
     def blend(self, other: GaitParams, s: float) -> GaitParams:
         """``self`` moved a fraction ``s`` of the way to ``other`` (:func:`blend_into`)."""
         out = other.rows()
-        blend_into(self.rows(), 0, out, 0, float(s))
+        _blend(self.rows(), out, float(s))
         return GaitParams.from_rows(out, 0)
 
 
@@ -310,8 +321,8 @@ class GaitScheduler:
         g = self.names.index(initial)
         self.state = ScheduleState(np.array([g], dtype=np.int64), np.array([g], dtype=np.int64),
                                    np.zeros(1, dtype=bool), np.zeros(1), np.zeros(1),
-                                   gait_rows(1), gait_rows(1))
-        self._scratch = gait_rows(1)
+                                   new_gait_rows(1), new_gait_rows(1))
+        self._scratch = new_gait_rows(1)
 
     current = property(lambda self: self.names[self.state.current[0]],
                        doc="The gait run, or entered by the transition.")
