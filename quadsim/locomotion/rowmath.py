@@ -2,8 +2,9 @@
 
 Each works on one row ``n`` of whole arrays rather than on a view of the row
 (``keys[n]``): each view made in the loops costs an atomic reference count,
-which the threads of :func:`~quadsim.locomotion.plan_kernels.plan_rows_parallel`
-contend for. Units are SI (m, s, rad); legs LF, RF, LH, RH.
+which the threads of a batch's blocks of rows
+(:func:`~quadsim.locomotion.blocks.run_blocks`) contend for. Units are SI
+(m, s, rad); legs LF, RF, LH, RH.
 """
 
 from __future__ import annotations
