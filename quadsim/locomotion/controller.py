@@ -44,7 +44,7 @@ from quadsim.commands import Command
 from quadsim.controller import Frame
 from quadsim.errors import QuadsimClampWarning
 from quadsim.locomotion.blocks import FixedEntry
-from quadsim.locomotion.bundles import CommandRows, PlanOutputs
+from quadsim.locomotion.bundles import CommandRows, PlanOutputs, plan_outputs
 from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import STAND, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
@@ -171,6 +171,8 @@ class ProceduralController:
         self._gait_ids: dict[str, tuple[str, int]] = {}
         self._warned: set[tuple] = set()
         self._runner = FixedEntry(plan_rows)
+        # the outputs of a step, reused: every reader copies what it keeps
+        self._outs = {False: plan_outputs(1), True: plan_outputs(1, self._packed_columns)}
         self._label = self._current_label()
 
     # the state, read from the compiled plan's row
@@ -261,9 +263,8 @@ class ProceduralController:
             c.heading[0] = float(command.heading)
             c.turn_rate[0] = 0.0
         p = self.plan
-        out = run_plan(c, p.body, p.tables, self._reach, sc, self._s,
-                       packed_columns=self._packed_columns if packed else 0,
-                       runner=self._runner)
+        out = run_plan(c, p.body, p.tables, self._reach, sc, self._s, runner=self._runner,
+                       out=self._outs[packed])
         if out.gait_speed_clamped[0] or out.speed_clamped[0] or out.turn_clamped[0]:
             self._clamp_warnings(command, gait_name, out)
         self._label = self._current_label()

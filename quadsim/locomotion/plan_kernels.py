@@ -401,15 +401,18 @@ def step_constants(settings, dt: float) -> StepConstants:
 
 
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
-             packed_columns: int = 0, runner: FixedEntry | None = None) -> PlanOutputs:
+             packed_columns: int = 0, runner: FixedEntry | None = None,
+             out: PlanOutputs | None = None) -> PlanOutputs:
     """:func:`plan_rows`, or, if ``parallel``, :func:`plan_rows` on blocks of
     rows on threads (:func:`~quadsim.locomotion.blocks.run_blocks`: the same
     result); returns the step's outputs, the plans packed for the posing if
     ``packed_columns``. ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry`
     of :func:`plan_rows` for bundles whose types never change, skips numba's
-    dispatch."""
+    dispatch. ``out``, if given, receives the outputs (``packed_columns`` is
+    then its ``packed`` width)."""
     n = state.motion.speed.shape[0]
-    out = plan_outputs(n, packed_columns)
+    if out is None:
+        out = plan_outputs(n, packed_columns)
     if not parallel:
         (runner or plan_rows)(cmd, body, gaits, reach, sc, state, out)
         return out

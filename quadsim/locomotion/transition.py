@@ -50,7 +50,7 @@ def _frac(x):
     return x - math.floor(x)
 
 
-@inner
+@njit(inline="always")  # a bundle passed per row costs more than the body
 def target_into(tables, k, g, speed, out, m):
     """``GaitParams.of`` gait ``g`` of kind ``k`` at ``speed`` (m/s) into row
     ``m`` of ``out`` (:class:`~quadsim.locomotion.bundles.GaitRows`): the
@@ -69,7 +69,7 @@ def target_into(tables, k, g, speed, out, m):
     out.spine_amplitude[m] = tables.spine_amplitude[k, g]
 
 
-@inner
+@njit(inline="always")  # a bundle passed per row costs more than the body
 def blend_into(src, n, out, m, s):
     """Row ``m`` of ``out`` moved a fraction ``s`` of the way from row ``n`` of
     ``src`` (in place): every parameter linearly, the phases along the
@@ -89,7 +89,7 @@ def blend_into(src, n, out, m, s):
         out.spine_amplitude[m] - src.spine_amplitude[n])
 
 
-@inner
+@njit(inline="always")  # a bundle passed per row costs more than the body
 def scheduled_into(tables, k, g, in_tr, elapsed, duration, source, n, speed, out, m):
     """The blended parameters of gait ``g`` of kind ``k`` at ``speed`` into row
     ``m`` of ``out``: during a transition (``in_tr``) moved from row ``n`` of
@@ -156,7 +156,7 @@ def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scr
                        n, v, params, n)
 
 
-@inner
+@njit(inline="always")  # a bundle passed per row costs more than the body
 def _copy_row(src, n, out, m):
     out.duty[m] = src.duty[n]
     for i in range(4):
