@@ -13,11 +13,11 @@ import warnings
 import numpy as np
 import pytest
 
-from quadsim.errors import InputError
-from quadsim.locomotion.batch import GAIT_IDS, BatchController
 from quadsim.commands import Command, Script
+from quadsim.errors import InputError
+from quadsim.locomotion.batch import BatchController
 from quadsim.locomotion.controller import ProceduralController
-from quadsim.locomotion.gaits import max_speed
+from quadsim.locomotion.gaits import gait_ids, max_speed
 from quadsim.locomotion.posing import PLAN_FIELDS
 from quadsim.skeleton.character import load_character
 
@@ -69,14 +69,14 @@ def test_mixed_batch_equals_each_character_alone():
             for j, (ctl, cmd) in enumerate(zip(alone, cmds)):
                 one = ctl.step(cmd)
                 g, i = where[j]
-                err = np.abs(frame["positions"][g][i] - one["positions"]).max()
+                err = np.abs(frame["positions"][g][i] - one.positions).max()
                 worst = max(worst, err)
                 assert err <= TOL, (k, j, err)
-                np.testing.assert_array_equal(frame["contacts"][j], one["contacts"])
-                assert batch.labels[j] == one["gait"], (k, j)
-                np.testing.assert_allclose(frame["root"][j], one["root"], atol=TOL)
-                np.testing.assert_allclose(frame["ik_error"][g][i], one["ik_error"], atol=TOL)
-                labels.add(one["gait"])
+                np.testing.assert_array_equal(frame["contacts"][j], one.contacts)
+                assert batch.labels[j] == one.gait, (k, j)
+                np.testing.assert_allclose(frame["root"][j], one.root, atol=TOL)
+                np.testing.assert_allclose(frame["ik_error"][g][i], one.extras["ik_error"], atol=TOL)
+                labels.add(one.gait)
     # the run really went through transitions, bounding gaits and standing
     assert any("->" in lb for lb in labels)
     assert any(lb.endswith("->stand") or lb == "stand" for lb in labels)
@@ -94,10 +94,10 @@ def test_one_row_batch_equals_the_controller_and_plan_only_matches_posed():
         f = batch.step_commands([cmd])
         p = plan_only.step_commands([cmd], pose=False)
         one = ctl.step(cmd)
-    np.testing.assert_allclose(f["positions"][0][0], one["positions"], atol=TOL)
-    np.testing.assert_allclose(f["local_rotations"][0][0], one["local_rotations"], atol=TOL)
-    np.testing.assert_allclose(p["feet"][0], one["feet"], atol=TOL)
-    np.testing.assert_allclose(p["phase"][0], one["phase"], atol=TOL)
+    np.testing.assert_allclose(f["positions"][0][0], one.positions, atol=TOL)
+    np.testing.assert_allclose(f["local_rotations"][0][0], one.local_rotations, atol=TOL)
+    np.testing.assert_allclose(p["feet"][0], one.extras["feet"], atol=TOL)
+    np.testing.assert_allclose(p["phase"][0], one.extras["phase"], atol=TOL)
     assert "positions" not in p
 
 
@@ -110,7 +110,7 @@ def test_array_commands_equal_command_objects():
     a = BatchController([ch] * n, seeds=range(n))
     b = BatchController([ch] * n, seeds=range(n))
     gait = a.gait_ids([None, "trot", None, "walk", None])
-    assert list(gait) == [-1, GAIT_IDS.index("trot"), -1, GAIT_IDS.index("walk"), -1]
+    assert list(gait) == [-1, gait_ids().index("trot"), -1, gait_ids().index("walk"), -1]
     cmds = [Command(speed=float(v), turn_rate=float(w), gait=g)
             for v, w, g in zip(speed, turn, [None, "trot", None, "walk", None])]
     for _ in range(40):
@@ -137,7 +137,7 @@ def test_bad_batch_input_is_refused():
     with pytest.raises(InputError, match="unknown gait"):
         b.gait_ids(["amble", None])
     with pytest.raises(InputError, match="not among"):
-        b.step([1.0, 1.0], gait=[GAIT_IDS.index("amble"), -1])
+        b.step([1.0, 1.0], gait=[gait_ids().index("amble"), -1])
     with pytest.raises(ValueError, match="2 characters"):
         b.step_commands([Command(speed=1.0)])
 
@@ -176,8 +176,8 @@ def test_zero_first_step_starting_gaits_and_standing_still_match():
         for j, ctl in enumerate(alone):
             one = ctl.step(cmds[j], dt)
             g, i = _row_of(batch, j)
-            np.testing.assert_allclose(frame["positions"][g][i], one["positions"], atol=TOL)
-            assert batch.labels[j] == one["gait"]
+            np.testing.assert_allclose(frame["positions"][g][i], one.positions, atol=TOL)
+            assert batch.labels[j] == one.gait
     assert batch.labels == ["trot", "amble", "stand"]
     assert np.all(frame["contacts"][2])
 
@@ -194,11 +194,10 @@ def test_a_large_herd_is_posed_on_threads_exactly_as_row_by_row():
         plan = herd.step(speed, turn, pose=False)
     poser = herd.kinds[0].poser
     packed = pose_kernel.pack_plan(plan, len(ch.tail))
-    threaded = poser.pose_packed(packed)               # pose_rows_parallel
-    args = poser._kernel_args
+    threaded = poser.pose_packed(packed)               # blocks on threads
     J = ch.skeleton.n_joints
     serial = (np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4)))
-    pose_kernel.pose_rows(np.ascontiguousarray(packed), *args, *serial)
+    pose_kernel.pose_rows(np.ascontiguousarray(packed), poser.rig, *serial)
     for a, b in zip(threaded, serial):
         np.testing.assert_array_equal(a, b)
     assert np.ptp(np.linalg.norm(threaded[1][:, 0], axis=1)) > 1.0   # the herd spread out
@@ -231,7 +230,7 @@ def test_a_large_mixed_herd_plans_on_threads_exactly_as_on_one(monkeypatch):
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        threaded = run()                                  # plan_rows_parallel
+        threaded = run()                                  # blocks on threads
         monkeypatch.setattr(batch_mod, "PARALLEL_ROWS", 10 ** 9)
         serial = run()                                    # plan_rows
     for a, b in zip(threaded, serial):

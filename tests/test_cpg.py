@@ -29,7 +29,7 @@ from quadsim.locomotion.cpg import (
     oscillator_outputs,
     stride_fraction,
 )
-from quadsim.locomotion.gaits import GAIT_NAMES, gait_table
+from quadsim.locomotion.gaits import gait_names, gait_table
 
 LF, RF, LH, RH = range(4)
 DT = 1.0 / 60.0
@@ -41,7 +41,7 @@ GAITS = gait_table(load_character("horse"))
 
 
 def test_the_horse_has_every_gait():
-    assert set(GAITS) == set(GAIT_NAMES)
+    assert set(GAITS) == set(gait_names())
 
 
 # ------------------------------------------------------------------ helpers

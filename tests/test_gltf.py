@@ -282,7 +282,7 @@ def test_quaternions_are_unit_xyzw_and_continuous(motions, glbs):
 def test_several_motions_become_named_animations(tmp_path):
     leopard = load_character("leopard")
     walk = simulate(leopard, Command(speed=1.0, gait="walk"), 1.0, 30)
-    trot = simulate(leopard, Command(gait="trot"), 1.5, 24)
+    trot = simulate(leopard, Command(speed=2.5, gait="trot"), 1.5, 24)
     path = write_glb([walk, trot, walk[:5]], tmp_path / "clips.glb")
     glb = Glb(path)
     assert [a.name for a in glb.gltf.animations] == ["walk", "trot", "walk_2"]

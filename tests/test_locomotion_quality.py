@@ -230,6 +230,47 @@ def test_bad_commands_raise_or_clamp_with_a_warning():
         ctl.step(Command(speed=1.0, turn_rate=100.0))
 
 
+def test_each_distinct_clamp_is_said_once():
+    """Every distinct clamp gets its warning; the same one repeated every frame
+    is said once."""
+    from quadsim.locomotion import ProceduralController, QuadsimClampWarning
+
+    ctl = ProceduralController(load_character("leopard"))
+    said = []
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for cmd in ([Command(speed=100.0)] * 30 + [Command(speed=200.0)] * 30
+                    + [Command(speed=100.0)] * 10
+                    + [Command(speed=1.0, turn_rate=100.0)] * 20
+                    + [Command(speed=1.0, turn_rate=-50.0)] * 20
+                    + [Command(speed=30.0, gait="walk")] * 10):
+            ctl.step(cmd)
+        said = [str(w.message) for w in caught if issubclass(w.category, QuadsimClampWarning)]
+    assert len(said) == 5, said
+    assert "100.00 m/s" in said[0] and "200.00 m/s" in said[1]
+    assert "5729.6 deg/s" in said[2] and "-2864.8 deg/s" in said[3]
+    assert "walk" in said[4]
+    assert len(set(said)) == 5
+
+
+@pytest.mark.parametrize("gait", ["walk", "transverse_gallop"])
+def test_speed_zero_with_a_gait_stands(gait):
+    """Speed 0 stands, whatever gait is asked for: from a start in that gait,
+    and after running in it."""
+    ch = load_character("leopard")
+    still = simulate(ch, Command(speed=0.0, gait=gait), 4.0, FPS)
+    assert still.gaits[-1] == "stand"
+    assert still.contacts[int(2.5 * FPS):].all()
+    assert np.ptp(still.root_positions[int(2.5 * FPS):, 2]) < 1e-6
+    s = Script((0.0, 4.0), (Command(speed=2.0, gait=gait), Command(speed=0.0, gait=gait)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        m = simulate(ch, s, 9.0, FPS)
+    assert m.gaits[-1] == "stand"
+    assert m.contacts[int(8.0 * FPS):].all()
+    assert np.abs(np.diff(m.root_positions[int(8.0 * FPS):, 2])).max() < 1e-6
+
+
 def test_same_script_gives_the_same_motion_bit_for_bit():
     ch = load_character("dog_cub")
     s = Script((0.0, 2.0), (Command(speed=1.0), Command(speed=3.0, turn_rate=0.5)))

@@ -1,29 +1,43 @@
-"""The plain-float and compiled forms used for speed equal the array forms.
+"""The compiled stage kernels the engine runs equal independent array forms.
 
-The compiled one-point interpolation of the plan kernel must agree with
-``numpy.interp`` (inside, at knots and beyond the ends). The compiled kernels shared by the
-single and batched paths must agree with the numpy forms: the CPG step
-(also at zero amplitude), the feet stage against the turning arc and the
-swing spline (a straight and a turning arc, progress 0 to touchdown), and
-the posing (:mod:`quadsim.locomotion.pose_kernel`) against the posing
-written with the array IK and forward kinematics.
+The compiled one-point interpolation of the plan must agree with
+``numpy.interp`` (inside, at knots and beyond the ends). The kernels shared
+by the single and batched paths must agree with the pure-numpy oracles of
+``tests/oracles.py``: the CPG step (also at zero amplitude), the feet stage
+against the turning arc and the swing spline (a straight and a turning arc,
+progress 0 to touchdown); and the posing
+(:mod:`quadsim.locomotion.pose_kernel`) against the posing written with the
+array IK and forward kinematics.
 """
 
 import numpy as np
 import pytest
+from numba import njit
+from oracles import arc_advance, cpg_step, solve_leg, swing_position
 
-from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import matrices_yaw_pitch
-from quadsim.locomotion.cpg import CPGParams, cpg_step, cpg_step_rows
-from quadsim.locomotion.footpath import swing_position
+from quadsim.locomotion import bundles as B
+from quadsim.locomotion.controller import ControllerSettings
+from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
+from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
+from quadsim.locomotion.feet import feet_rows
+from quadsim.locomotion.footpath import swing_position as compiled_swing_position
+from quadsim.locomotion.plan_kernels import step_constants
 from quadsim.locomotion.pose_kernel import pack_plan
 from quadsim.locomotion.posing import Poser
-from quadsim.locomotion.plan_kernels import MIN_SWING, _interp1, feet_rows
-from quadsim.locomotion.turning import arc_advance, rotate_y
+from quadsim.locomotion.rowmath import MIN_SWING, interp1
+from quadsim.locomotion.turning import arc_advance as compiled_arc_advance
+from quadsim.locomotion.turning import rotate_y
 from quadsim.skeleton.character import load_character
 from quadsim.skeleton.fk import forward_kinematics
 
 TOL = 1e-12
+
+
+@njit
+def _feet_stage(state, scratch, reach, sc, out):
+    """The feet stage called as the plan calls it (it has no Python entry)."""
+    feet_rows(state, scratch, reach, sc, out)
 
 
 def test_interp_equals_numpy_inside_at_knots_and_beyond_the_ends():
@@ -33,7 +47,7 @@ def test_interp_equals_numpy_inside_at_knots_and_beyond_the_ends():
     xs += list(np.random.default_rng(0).uniform(-0.1, 0.8, 50))
     xp, fp = np.array(xp), np.array(fp)
     for x in xs:
-        assert _interp1(x, xp, fp) == pytest.approx(float(np.interp(x, xp, fp)), abs=TOL), x
+        assert interp1(x, xp, fp) == pytest.approx(float(np.interp(x, xp, fp)), abs=TOL), x
 
 
 def test_compiled_cpg_step_equals_the_array_network():
@@ -46,6 +60,8 @@ def test_compiled_cpg_step_equals_the_array_network():
     rs[0] = 0.0
     omega, psi = rng.uniform(3, 20, n), rng.uniform(0, 1, (n, 4))
     a = cpg_step(theta, r, ts, rs, omega, psi, 1 / 60, p)
+    for x, y in zip(a, compiled_cpg_step(theta, r, ts, rs, omega, psi, 1 / 60, p)):
+        np.testing.assert_allclose(y, x, atol=TOL)
     b = cpg_step_rows(theta, r, ts, rs, omega, psi, 1 / 60, p.mu, p.gain, p.coupling,
                       p.spine_coupling, p.substeps)
     for x, y in zip(a, b):
@@ -61,8 +77,8 @@ def test_compiled_cpg_step_equals_the_array_network():
 
 @pytest.mark.parametrize("yaw_rate", [0.0, 1e-9, 0.4, -1.3])
 def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
-    """plan_kernels.feet_rows against turning.arc_advance, rotate_y and
-    footpath.swing_position: swinging feet at progress from 0 to past 1
+    """feet.feet_rows against the oracles' arc and swing spline and rotate_y:
+    swinging feet at progress from 0 to past 1
     (touchdown on the target), and a planted foot due to lift off."""
     rng = np.random.default_rng(5)
     n = 9
@@ -84,11 +100,23 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     planted = rng.normal(0, 1, (n, 4, 3))
     liftoff = rng.normal(0, 1, (n, 4, 3))
     swing_s = np.zeros((n, 4))
-    state = [x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted, liftoff)]
-    feet, fold = np.empty((n, 4, 3)), np.empty((n, 4))
-    feet_rows(theta, theta - 0.1, duty, final, freq, v, w, keys, kh, offset,
-              np.zeros((n, 4), dtype=bool), swing_h, half, 0.85, *state, feet, fold)
-    st, ss, lo, td, pl, lf = state
+    feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
+                                                   liftoff)))
+    z, z4 = np.zeros(n), np.zeros((n, 4))
+    params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
+    state = B.PlanState(
+        B.MotionState(v.copy(), w.copy(), z, np.zeros((n, 3)), z),
+        B.CpgState(theta.copy(), z4, z, z, freq.copy()),
+        B.ScheduleState(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, bool), z, z,
+                        params, params),
+        feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2))))
+    scratch = B.StepScratch(z, z, z4, theta - 0.1, keys, kh, final, np.zeros((n, 4), bool), half)
+    reach = B.ReachTables(np.zeros(2), np.zeros((n, 2, 4)), np.zeros((n, 2)),
+                          np.zeros((n, 4, 2)), offset)
+    out = B.plan_outputs(n)
+    _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
+    feet, fold = out.feet, out.fold
+    st, ss, lo, td, pl, lf = feet_state
     assert not st[0, 0] and lo[0, 0] <= theta[0, 0] < td[0, 0]
     np.testing.assert_array_equal(lf[0, 0], planted[0, 0])
     # the expected targets and swing positions, from the array functions
@@ -104,6 +132,10 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     step = np.linalg.norm(target - lf, axis=-1)
     height = np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
     want = swing_position(lf, target, height, s)
+    np.testing.assert_allclose(compiled_swing_position(lf, target, height, s), want, atol=TOL)
+    kp2, kh2 = compiled_arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
+    np.testing.assert_allclose(kp2, kp, atol=1e-9)
+    np.testing.assert_allclose(kh2, kh_new, atol=TOL)
     down = s >= 1 - 1e-12
     assert down.any() and (~down).any() and (s == 0).any()
     np.testing.assert_allclose(feet[~down], want[~down], atol=TOL)
@@ -130,7 +162,7 @@ def _random_plan(ch, rng, T):
 
 def _reference_pose(ch, poser, plan):
     """The posing written with the array functions: matrices_yaw_pitch,
-    forward_kinematics and solve_leg, leg by leg."""
+    forward_kinematics and the oracle's solve_leg, leg by leg."""
     sk = ch.skeleton
     T, J = len(plan["root"]), sk.n_joints
     L = np.broadcast_to(np.eye(3), (T, J, 3, 3)).copy()
@@ -160,7 +192,7 @@ def _reference_pose(ch, poser, plan):
 
 @pytest.mark.parametrize("name", ["leopard", "dog_cub", "horse"])
 def test_compiled_posing_equals_the_array_functions(name):
-    """The compiled kernel (Poser.pose, pose_packed, pose_one) against the
+    """The compiled kernel (Poser.pose, pose_packed) against the
     posing recomputed with solve_leg and forward_kinematics, which
     tests/test_ik.py and tests/test_fk.py check against known poses."""
     rng = np.random.default_rng(8)
@@ -173,14 +205,8 @@ def test_compiled_posing_equals_the_array_functions(name):
     np.testing.assert_allclose(local, L, atol=TOL)
     np.testing.assert_allclose(root, plan["root"], atol=0)
     np.testing.assert_allclose(err1, err, atol=TOL)
-    local2, P2, err2 = poser.pose_packed(pack_plan(plan, len(ch.tail)))
+    local2, P2, _ = poser.pose_packed(pack_plan(plan, len(ch.tail)))
     np.testing.assert_array_equal(local2, local)
     np.testing.assert_allclose(P2, P, atol=TOL)
-    # one frame from the interactive step's plain lists
-    raw = {k: v[3].tolist() for k, v in plan.items()}
-    local1, P1, err1 = poser.pose_one(raw)
-    np.testing.assert_array_equal(local1, local[3])
-    np.testing.assert_array_equal(P1, P2[3])
-    np.testing.assert_array_equal(err1, err2[3])
     with pytest.raises(ValueError, match="rows"):  # too few columns for the tail
         poser.pose_packed(pack_plan(plan, len(ch.tail))[:, :-1])

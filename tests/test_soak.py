@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from quadsim import list_characters, load_character
 from quadsim.locomotion import Command, ProceduralController
-from quadsim.locomotion.controller import stack_plans
+from quadsim.locomotion.offline import stack_plans
 from quadsim.locomotion.gaits import gait_table, max_speed
 from quadsim.skeleton.fk import forward_kinematics
 
@@ -57,7 +57,7 @@ def run_and_check(character, segments, seconds):
             t = (k / FPS) % times[-1]
             _, v, w, g = segments[int(np.searchsorted(times, t, side="right"))
                                   if t < times[-1] else -1]
-            chunk.append(ctl.step(Command(speed=v, turn_rate=w, gait=g), pose=False))
+            chunk.append(ctl.plan_step(Command(speed=v, turn_rate=w, gait=g)))
             if len(chunk) == 1800 or k == n - 1:
                 plan = stack_plans(chunk)
                 local, root, _ = ctl.pose(plan)

@@ -19,7 +19,9 @@ is solved as
 Reachable targets are reached exactly. An unreachable target gives the
 closest pose along the line to it (the pair straightened, never NaN).
 
-All functions are vectorised over any leading batch shape.
+:func:`leg_rows` is the IK, compiled: the posing
+(:mod:`quadsim.locomotion.pose_kernel`) runs it for every frame, and
+:func:`solve_leg` is its face for arrays of any leading batch shape.
 
 In-plane angles are measured from the downward direction towards forward
 (+Z), in radians: a bone of length ``l`` at angle ``phi`` spans
@@ -29,15 +31,22 @@ turns a bone at angle ``phi`` to ``phi - theta``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
+from numba import njit
 
-from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.skeleton.character import Character, LegSpec
 
-_EPS = 1e-9
+#: The two-bone pair is never quite straight nor quite folded: its span
+#: stays this far (m) inside ``[|l1 - l2|, l1 + l2]`` (no singular bend).
+PAIR_SLACK = 1e-6
+#: A post joint with no limits in the character file folds within these (rad).
+DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
+#: Largest fold of a post bone (rad).
+MAX_FOLD = math.radians(75.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,31 +111,6 @@ class LegGeometry:
         return self.lengths.shape[-1]
 
 
-def stack_leg_geometries(geoms) -> LegGeometry:
-    """Several legs as one :class:`LegGeometry` with a trailing leg axis B.
-
-    The legs must have the same number of bones and the same pair bone.
-    The result's ``chain`` has shape (B, n + 1), ``parent`` is an int array
-    (B,), ``top_offset`` (B, 3), the per-bone arrays (B, n) and the scalars
-    (B,). :func:`solve_leg` takes it like a single leg; the batch shape of
-    its inputs must then end with B. Equal to solving each leg alone.
-    """
-    geoms = list(geoms)
-    first = geoms[0]
-    if any(g.n_bones != first.n_bones or g.pair != first.pair for g in geoms):
-        raise ValueError("stacked legs need the same number of bones and the same pair")
-
-    def st(name, dtype=float):
-        return np.array([getattr(g, name) for g in geoms], dtype=dtype)
-
-    return LegGeometry(
-        chain=st("chain", int), parent=st("parent", int), top_offset=st("top_offset"),
-        lengths=st("lengths"), rest_angles=st("rest_angles"), pair=first.pair,
-        bend=st("bend"), fold=st("fold"), pre_gain=st("pre_gain"),
-        post_gain=st("post_gain"), toe_angle=st("toe_angle"),
-        rest_leg_angle=st("rest_leg_angle"), lower=st("lower"), upper=st("upper"))
-
-
 def leg_geometry(character: Character, leg: LegSpec, *,
                  fold_fraction: float = 0.55) -> LegGeometry:
     """Build a leg's :class:`LegGeometry` from the character description.
@@ -152,10 +136,10 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     fold = np.zeros(n)
     for k in range(leg.ik_start + 2, n):
         joint = int(chain[k])
-        lo, hi = character.limits.get(joint, (np.radians(-30.0), np.radians(30.0)))
+        lo, hi = character.limits.get(joint, DEFAULT_FOLD_LIMITS)
         # positive rotation about +X swings the bone backwards: angle -= theta
         big = hi if abs(hi) >= abs(lo) else lo
-        fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, np.radians(75.0))
+        fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, MAX_FOLD)
     foot = sk.names[chain[-1]]
     end = sk.end_sites.get(foot, np.array([0.0, 0.0, 1.0]))
     toe = float(np.arctan2(end[2], -end[1]))
@@ -174,41 +158,232 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     )
 
 
-def _solve_pair(geom: LegGeometry, phi, qd, qf, down_t, fwd_t):
-    """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
+_inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 
-    The pair runs from Q (below the pre bones) to C (the target less the
-    post bones). Returns how far the foot falls short of the target (m).
+
+def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Legs' :class:`LegGeometry` as the kernel's ``leg_int``, ``leg_top``,
+    ``leg_bones`` and ``leg_scal`` arrays, L legs.
+
+    ``leg_int`` (L, 4 + n_max + 1) holds the number of bones n, the pair's
+    upper bone, the top joint's parent, whether the post joints are limited
+    (0/1) and the chain's joint indices; ``leg_top`` (L, 3) the top joint's
+    offset (m); ``leg_bones`` (L, 7, n_max) the bone lengths (m), rest
+    angles, full-fold angles, lower and upper flexion limits (rad) and the
+    rest angles' cosines and sines; ``leg_scal`` (L, 5) the bend sign, pre
+    and post gains, toe angle and rest leg angle (rad).
     """
-    L = geom.lengths
-    k0 = geom.pair
-    post = slice(k0 + 2, None)
-    cd = down_t - (L[..., post] * np.cos(phi[..., post])).sum(axis=-1)
-    cf = fwd_t - (L[..., post] * np.sin(phi[..., post])).sum(axis=-1)
-    l1, l2 = L[..., k0], L[..., k0 + 1]
-    vd, vf = cd - qd, cf - qf
-    r_true = np.hypot(vd, vf)
-    # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
-    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
-    gam = np.arctan2(vf, vd)
-    cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
-    phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
-    bd = qd + l1 * np.cos(phi[..., k0])
-    bf = qf + l1 * np.sin(phi[..., k0])
-    phi[..., k0 + 1] = np.arctan2(qf + r * np.sin(gam) - bf, qd + r * np.cos(gam) - bd)
-    return np.abs(r_true - r)
+    n_max = max(g.n_bones for g in legs)
+    leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
+    leg_top = np.zeros((len(legs), 3))
+    leg_bones = np.zeros((len(legs), 7, n_max))
+    leg_scal = np.zeros((len(legs), 5))
+    for i, g in enumerate(legs):
+        n = g.n_bones
+        leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
+        leg_int[i, 4:4 + n + 1] = g.chain
+        leg_top[i] = g.top_offset
+        for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
+                                 np.cos(g.rest_angles), np.sin(g.rest_angles))):
+            leg_bones[i, r, :n] = arr
+        leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
+    return leg_int, leg_top, leg_bones, leg_scal
+
+
+
+@_inner
+def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
+    """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
+    towards C = (``cd``, ``cf``), the target less the post bones, by the law
+    of cosines, as cosines and sines.
+
+    Returns the upper bone's cosine and sine, the lower bone's, the lower
+    bone's vector (its angle is ``atan2(y, x)``) and how far the foot falls
+    short of the target (m). The law of cosines is taken in cosines and
+    sines: those of the direction to C (``gam``) and of the bend (``bend *
+    delta``, its sine from its cosine for a bend of +-1) give the upper
+    bone's as those of a sum (equal to rounding); the upper bone's angle
+    itself is never needed.
+    """
+    vd = cd - qd
+    vf = cf - qf
+    r_true = math.sqrt(vd * vd + vf * vf)
+    r = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), l1 + l2 - PAIR_SLACK)
+    cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
+    cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
+    if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
+        cb = cos_delta
+        sb = bend * math.sqrt((1.0 - cos_delta) * (1.0 + cos_delta))
+    else:
+        turn = bend * math.acos(cos_delta)
+        cb = math.cos(turn)
+        sb = math.sin(turn)
+    c0 = cg * cb - sg * sb  # the upper bone at gam + bend * delta
+    s0 = sg * cb + cg * sb
+    x = qd + r * cg - (qd + l1 * c0)
+    y = qf + r * sg - (qf + l1 * s0)
+    c1, s1 = _direction(x, y, math.sqrt(x * x + y * y))
+    return c0, s0, c1, s1, x, y, abs(r_true - r)
+
+
+@_inner
+def _direction(x, y, h):
+    """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
+    if h > 0.0:
+        return x / h, y / h
+    a = math.atan2(y, x)
+    return math.cos(a), math.sin(a)
+
+
+@_inner
+def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
+    """The legs' IK, compiled: each leg of ``legs`` (:func:`pack_legs`) in
+    rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
+    and position ``positions[t, p]`` (m), to the target, swing fold and toe
+    pitch in the columns ``cols = [target, fold, toe]`` (int array) of ``plan[t]`` (leg
+    ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``): writes the chains'
+    local rotations ``local[t, j]`` and the misses ``err[t, i]`` (m).
+
+    The bones' in-plane angles ``phi`` are carried with their cosines and
+    sines, from which the pair (:func:`_solve_pair`) and the local rotations
+    follow without more trigonometry. A limit pass that moves no post bone
+    would solve the same pair again, so the pair is solved again only after
+    a pass that does (the joint limits rarely bind in a stride).
+    """
+    leg_int, leg_top, leg_bones, leg_scal = legs
+    FEET, FOLD, TOE = cols[0], cols[1], cols[2]
+    n_max = leg_bones.shape[2]
+    phi = np.empty(n_max)
+    cphi = np.empty(n_max)
+    sphi = np.empty(n_max)
+    for t in range(a, b):
+        g = t - a
+        for i in range(leg_int.shape[0]):
+            n = leg_int[i, 0]
+            k0 = leg_int[i, 1]
+            p = leg_int[i, 2]
+            limited = leg_int[i, 3]
+            bend, pre_gain, post_gain = leg_scal[i, 0], leg_scal[i, 1], leg_scal[i, 2]
+            toe_angle, rest_leg = leg_scal[i, 3], leg_scal[i, 4]
+            l1 = leg_bones[i, 0, k0]
+            l2 = leg_bones[i, 0, k0 + 1]
+            ox, oy, oz = leg_top[i, 0], leg_top[i, 1], leg_top[i, 2]
+            ex = plan[t, FEET + 3 * i] - (positions[t, p, 0] + (
+                G[g, p, 0, 0] * ox + G[g, p, 0, 1] * oy + G[g, p, 0, 2] * oz))
+            ey = plan[t, FEET + 3 * i + 1] - (positions[t, p, 1] + (
+                G[g, p, 1, 0] * ox + G[g, p, 1, 1] * oy + G[g, p, 1, 2] * oz))
+            ez = plan[t, FEET + 3 * i + 2] - (positions[t, p, 2] + (
+                G[g, p, 2, 0] * ox + G[g, p, 2, 1] * oy + G[g, p, 2, 2] * oz))
+            # the target in the parent's frame
+            d0 = G[g, p, 0, 0] * ex + G[g, p, 1, 0] * ey + G[g, p, 2, 0] * ez
+            d1 = G[g, p, 0, 1] * ex + G[g, p, 1, 1] * ey + G[g, p, 2, 1] * ez
+            d2 = G[g, p, 0, 2] * ex + G[g, p, 1, 2] * ey + G[g, p, 2, 2] * ez
+            # abduction a = atan2(d0, -d1) about the parent's forward axis
+            # brings it into the leg's plane (only its cosine and sine are used)
+            rho = math.sqrt(d0 * d0 + d1 * d1)
+            if rho > 0.0:
+                ca = -d1 / rho
+                sa = d0 / rho
+            else:
+                ab = math.atan2(d0, -d1)
+                ca, sa = math.cos(ab), math.sin(ab)
+            down_t = -(d1 * ca - d0 * sa)
+            fwd_t = d2
+            # world down in the leg plane
+            gy = -(G[g, p, 0, 1] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
+            phi_down = math.atan2(G[g, p, 2, 1] * -1.0, -gy)
+            swing = math.atan2(fwd_t, down_t) - rest_leg
+            qd = 0.0
+            qf = 0.0
+            for k in range(k0):  # pre bones swing with the leg
+                ang = leg_bones[i, 1, k] + pre_gain * swing
+                phi[k] = ang
+                cphi[k] = math.cos(ang)
+                sphi[k] = math.sin(ang)
+                qd = qd + leg_bones[i, 0, k] * cphi[k]
+                qf = qf + leg_bones[i, 0, k] * sphi[k]
+            for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded
+                ang = leg_bones[i, 1, k] + phi_down + post_gain * swing \
+                    + leg_bones[i, 2, k] * plan[t, FOLD + i]
+                phi[k] = ang
+                cphi[k] = math.cos(ang)
+                sphi[k] = math.sin(ang)
+            # post joints inside their limits, then the pair again (twice); a
+            # pass that moves no bone would solve the same pair again: done
+            for rep in range(3 if limited else 1):
+                if rep:
+                    moved = False
+                    for k in range(k0 + 2, n):
+                        above = leg_bones[i, 1, k - 1] - phi[k - 1]
+                        rel = (leg_bones[i, 1, k] - phi[k]) - above
+                        lo = leg_bones[i, 3, k]
+                        hi = leg_bones[i, 4, k]
+                        if not (rel >= lo and rel <= hi):
+                            rel = min(max(rel, lo), hi)
+                            ang = leg_bones[i, 1, k] - above - rel
+                            phi[k] = ang
+                            cphi[k] = math.cos(ang)
+                            sphi[k] = math.sin(ang)
+                            moved = True
+                    if not moved:
+                        break
+                cd = 0.0
+                cf = 0.0
+                for k in range(k0 + 2, n):
+                    cd += leg_bones[i, 0, k] * cphi[k]
+                    cf += leg_bones[i, 0, k] * sphi[k]
+                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf,
+                                                            down_t - cd, fwd_t - cf)
+                cphi[k0], sphi[k0], cphi[k0 + 1], sphi[k0 + 1] = c0, s0, c1, s1
+                if limited:
+                    phi[k0 + 1] = math.atan2(y, x)
+            err[t, i] = reached
+            # local rotations about +X by rel_k = cum_k - cum_(k-1), where
+            # cum_k = A0_k - phi_k (the foot's: toe_angle - (phi_down + pi / 2
+            # + toe)), as the cosine and sine of angle differences
+            pc = 1.0
+            ps = 0.0
+            for k in range(n + 1):
+                if k < n:  # cos and sin of A0_k - phi_k
+                    cc = leg_bones[i, 5, k] * cphi[k] + leg_bones[i, 6, k] * sphi[k]
+                    cs = leg_bones[i, 6, k] * cphi[k] - leg_bones[i, 5, k] * sphi[k]
+                else:
+                    cum = toe_angle - (phi_down + math.pi / 2 + plan[t, TOE + i])
+                    cc = math.cos(cum)
+                    cs = math.sin(cum)
+                cb = cc * pc + cs * ps
+                sb = cs * pc - cc * ps
+                pc = cc
+                ps = cs
+                j = leg_int[i, 4 + k]
+                if k == 0:  # R_z(a) @ R_x(rel)
+                    local[t, j, 0, 0] = ca
+                    local[t, j, 0, 1] = -sa * cb
+                    local[t, j, 0, 2] = sa * sb
+                    local[t, j, 1, 0] = sa
+                    local[t, j, 1, 1] = ca * cb
+                    local[t, j, 1, 2] = -ca * sb
+                else:
+                    local[t, j, 0, 0] = 1.0
+                    local[t, j, 0, 1] = 0.0
+                    local[t, j, 0, 2] = 0.0
+                    local[t, j, 1, 0] = 0.0
+                    local[t, j, 1, 1] = cb
+                    local[t, j, 1, 2] = -sb
+                local[t, j, 2, 0] = 0.0
+                local[t, j, 2, 1] = sb
+                local[t, j, 2, 2] = cb
 
 
 def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
               target: np.ndarray, fold: np.ndarray | float = 0.0,
               toe_pitch: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Local rotations that put a leg's foot joint on a target.
+    """Local rotations that put a leg's foot joint on a target
+    (:func:`leg_rows`, the posing's own kernel, for arrays of any batch shape).
 
     Parameters
     ----------
     geom : LegGeometry
-        One leg, or several stacked by :func:`stack_leg_geometries` (then
-        every batch shape below ends with their number B).
     parent_rot : array-like, shape (..., 3, 3)
         World rotation of the top joint's parent.
     parent_pos : array-like, shape (..., 3)
@@ -231,59 +406,31 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     Rp = np.asarray(parent_rot, dtype=float)
     Pp = np.asarray(parent_pos, dtype=float)
     tgt = np.asarray(target, dtype=float)
-    batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1],
-                                np.shape(fold), np.shape(toe_pitch))
-    RpT = np.swapaxes(Rp, -1, -2)
-    top = Pp + np.einsum("...ij,...j->...i", Rp, geom.top_offset)
-    d = np.einsum("...ij,...j->...i", RpT, tgt - top)
-    d = np.broadcast_to(d, batch + (3,))
-    # abduction about the parent's forward axis brings the target into the plane
-    # (a target above the top joint swings the plane past horizontal: the
-    # leg then points at it, and `reached` reports the true miss)
-    a = np.arctan2(d[..., 0], -d[..., 1])
-    ca, sa = np.cos(a), np.sin(a)
-    down_t = -(d[..., 1] * ca - d[..., 0] * sa)  # -(y') with y' = -x sin a + y cos a
-    fwd_t = d[..., 2]
-    # world down in the leg plane
-    g = np.broadcast_to(RpT[..., 1, :] * -1.0, batch + (3,))  # R^T (0,-1,0)
-    gy = -g[..., 0] * sa + g[..., 1] * ca
-    phi_down = np.arctan2(g[..., 2], -gy)
-
-    L = geom.lengths
-    A0 = geom.rest_angles
-    n = geom.n_bones
-    k0 = geom.pair
-    phi = np.empty(batch + (n,))
-    # pre bones swing with the leg
-    alpha = np.arctan2(fwd_t, down_t)
-    qd = np.zeros(batch)
-    qf = np.zeros(batch)
-    for k in range(k0):
-        phi[..., k] = A0[..., k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
-        qd = qd + L[..., k] * np.cos(phi[..., k])
-        qf = qf + L[..., k] * np.sin(phi[..., k])
-    # post bones: rest angle to the world vertical, turned with the leg, plus
-    # the swing fold
     fold = np.asarray(fold, dtype=float)
-    for k in range(k0 + 2, n):
-        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
-                       + geom.fold[..., k] * fold)
-    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
-    # keep the post joints inside their limits relative to the bone above,
-    # then solve the pair again for the moved post bones (twice: the second
-    # pass corrects the small change the re-solved pair makes)
-    for _ in range(2 if geom.limited else 0):
-        for k in range(k0 + 2, n):
-            rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
-            rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
-            phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
-        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+    toe = np.asarray(toe_pitch, dtype=float)
+    batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1], fold.shape,
+                                toe.shape)
+    M = math.prod(batch)
+    n = geom.n_bones
+    # the chain as joints 0..n, its parent n + 1: the kernel's arrays stay small
+    legs = pack_legs([replace(geom, chain=np.arange(n + 1), parent=n + 1)])
+    J = n + 2
+    G = np.zeros((M, J, 3, 3))
+    G[:, n + 1] = np.broadcast_to(Rp, batch + (3, 3)).reshape(M, 3, 3)
+    P = np.zeros((M, J, 3))
+    P[:, n + 1] = np.broadcast_to(Pp, batch + (3,)).reshape(M, 3)
+    plan = np.zeros((M, 5))
+    plan[:, 0:3] = np.broadcast_to(tgt, batch + (3,)).reshape(M, 3)
+    plan[:, 3] = np.broadcast_to(fold, batch).reshape(M)
+    plan[:, 4] = np.broadcast_to(toe, batch).reshape(M)
+    local = np.empty((M, J, 3, 3))
+    err = np.empty((M, 1))
+    _solve_rows(plan, legs, G, P, local, err)
+    return local[:, :n + 1].reshape(batch + (n + 1, 3, 3)), err[:, 0].reshape(batch)
 
-    theta = A0 - phi  # cumulative rotation about +X of each chain joint
-    toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)
-    theta_foot = geom.toe_angle - toe_phi
-    cum = np.concatenate([theta, theta_foot[..., None]], axis=-1)
-    rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)
-    local = matrices_about_axis(0, rel)
-    local[..., 0, :, :] = matrices_about_axis(2, a) @ local[..., 0, :, :]
-    return local, reached
+
+@njit(cache=True)
+def _solve_rows(plan, legs, G, P, local, err):
+    leg_rows(plan, np.array([0, 3, 4]), np.int64(0), plan.shape[0], legs, G, P, local, err)
+
+

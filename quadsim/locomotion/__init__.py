@@ -3,14 +3,11 @@
 Knows nothing of files or screens.
 """
 
-from quadsim.locomotion.batch import BatchController
 from quadsim.commands import Command, Script
-from quadsim.locomotion.controller import (
-    ControllerSettings,
-    ProceduralController,
-    QuadsimClampWarning,
-    simulate,
-)
+from quadsim.errors import QuadsimClampWarning
+from quadsim.locomotion.batch import BatchController
+from quadsim.locomotion.controller import ControllerSettings, ProceduralController
+from quadsim.locomotion.offline import simulate
 
 __all__ = ["BatchController", "Command", "ControllerSettings", "ProceduralController",
            "QuadsimClampWarning", "Script", "simulate"]

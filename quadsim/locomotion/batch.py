@@ -21,9 +21,9 @@ Each character follows exactly the path a lone
 :class:`~quadsim.locomotion.controller.ProceduralController` with the same
 seed, starting gait and commands would (tests assert agreement to 1e-9).
 
-Gaits are numbered in the order of :data:`quadsim.locomotion.gaits.GAIT_NAMES`,
-with the standing state last (:data:`GAIT_IDS`); ``-1`` asks for the
-automatic choice by speed.
+Gaits are numbered by :func:`quadsim.locomotion.gaits.gait_ids` (the gait
+table's order, the standing state last); ``-1`` asks for the automatic
+choice by speed.
 """
 
 from __future__ import annotations
@@ -34,24 +34,23 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from quadsim.errors import InputError
-from quadsim.frames import Y
 from quadsim.commands import Command
-from quadsim.locomotion.controller import (
-    GAIT_IDS,
-    ControllerSettings,
-    ProceduralController,
-    QuadsimClampWarning,
-    initial_oscillators,
+from quadsim.errors import InputError, QuadsimClampWarning
+from quadsim.locomotion.blocks import FixedEntry
+from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables
+from quadsim.locomotion.controller import ControllerSettings
+from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
+from quadsim.locomotion.plan_kernels import (
+    LOOK_PER_BEND,
+    TOE_PER_FOLD,
+    plan_rows,
+    run_plan,
+    step_constants,
 )
-from quadsim.locomotion.gaits import GAIT_NAMES, resolve_gait_name
-from quadsim.locomotion import plan_kernels as _pk
-from quadsim.locomotion.plan_kernels import run_plan, step_scalars
 from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns
+from quadsim.locomotion.tables import character_plan, stack_states
+from quadsim.locomotion.transition import gait_tables
 from quadsim.skeleton.character import Character
-
-_STAND = len(GAIT_NAMES)
-_G = len(GAIT_IDS)
 
 
 def _rows(values, n: int, dtype) -> np.ndarray:
@@ -59,31 +58,6 @@ def _rows(values, n: int, dtype) -> np.ndarray:
     out = np.empty(n, dtype=dtype)
     out[...] = np.asarray(values, dtype=dtype)
     return out
-
-
-class _Rows:
-    """A bag of arrays (the compiled plan's constants), as attributes."""
-
-    def __init__(self, **arrays):
-        self.__dict__.update(arrays)
-
-
-class _Kind:
-    """Per-character constants, taken from a lone controller's set-up."""
-
-    def __init__(self, character: Character, dt: float, settings: ControllerSettings):
-        ctl = ProceduralController(character, dt=dt, settings=settings)
-        self.character = character
-        self.template = ctl
-        self.poser = ctl.poser
-        self.n_tail = len(character.tail)
-        # the compiled plan's constants (ProceduralController._tables)
-        self.table, self.law, self.has = ctl.gait_table, ctl.gait_law, ctl.gait_has
-        self.auto = list(ctl.auto_ids)
-        self.bounds = np.asarray(ctl.scheduler.bounds, dtype=float)
-        self.consts = ctl.plan_consts
-        self.max_speed = ctl.max_speed
-        self.pelvis_height = ctl.pelvis_height
 
 
 class BatchController:
@@ -118,7 +92,7 @@ class BatchController:
     stance : ndarray of bool, shape (N, 4)
         Whether each foot is planted, legs LF, RF, LH, RH.
     current : ndarray of int, shape (N,)
-        Gait id (:data:`GAIT_IDS`) being run or transitioned to.
+        Gait id (:attr:`ids`) being run or transitioned to.
     """
 
     def __init__(self, characters: Sequence[Character], dt: float = 1.0 / 60.0,
@@ -134,108 +108,63 @@ class BatchController:
         self.dt = float(dt)
         self.settings = settings or ControllerSettings()
         kinds: dict[int, int] = {}
-        self.kinds: list[_Kind] = []
+        self.kinds = []  # each kind's CharacterPlan
         kind_of = np.empty(n, dtype=np.int64)
         for i, ch in enumerate(chars):
             k = kinds.get(id(ch))
             if k is None:
                 k = kinds[id(ch)] = len(self.kinds)
-                self.kinds.append(_Kind(ch, self.dt, self.settings))
+                self.kinds.append(character_plan(ch))
             kind_of[i] = k
         self.kind = kind_of
         self.groups = tuple((kd.character, np.flatnonzero(kind_of == k))
                             for k, kd in enumerate(self.kinds))
+        self.ids = gait_ids()
         self._constants()
         seeds = np.broadcast_to(np.asarray(seeds, dtype=np.int64), (n,))
         gaits = [None] * n if gaits is None else list(gaits)
         if len(gaits) != n:
             raise ValueError(f"`gaits` has {len(gaits)} entries, expected {n} (one a character)")
         self._init_state(chars, seeds, gaits)
-        self._warned: set[str] = set()
+        self._warned: set[tuple] = set()
 
     # ------------------------------------------------------------ set-up
     def _constants(self) -> None:
         kd, k = self.kinds, self.kind
-        t0 = kd[0].template
-        half_sweep = np.stack([x.template.half_sweep for x in kd])[k]  # (N, D, 4)
-        A = max(len(x.auto) for x in kd)
-        auto = np.full((len(kd), A), -1, dtype=np.int64)
-        bounds = np.full((len(kd), A), np.inf)
-        pos = np.full((len(kd), _G), -1, dtype=np.int64)
-        for i, x in enumerate(kd):
-            auto[i, :len(x.auto)] = x.auto
-            bounds[i, :len(x.bounds)] = x.bounds
-            pos[i, x.auto] = np.arange(len(x.auto))
-        self._max_speed = np.array([x.max_speed for x in kd])[k]
-        self._pelvis_height = np.array([x.pelvis_height for x in kd])[k]
-        self._law = np.stack([x.law for x in kd])
-        self._has = np.stack([x.has for x in kd])
-        self._n_tail_max = max(x.n_tail for x in kd)
-        self._k = _Rows(
-            kind=np.ascontiguousarray(k, dtype=np.int64),
-            consts=np.ascontiguousarray(np.stack([x.consts for x in kd])[k].T),
-            table=np.ascontiguousarray(np.stack([x.table for x in kd])),
-            law=np.ascontiguousarray(self._law), auto=np.ascontiguousarray(auto[k]),
-            bounds=np.ascontiguousarray(bounds[k]), auto_pos=pos,
-            drops=np.ascontiguousarray(t0.drops, dtype=float),
-            half_sweep=np.ascontiguousarray(half_sweep, dtype=float),
-            sweep_min=np.ascontiguousarray(half_sweep.min(axis=2)),
-            sweep_cols=np.ascontiguousarray(np.swapaxes(half_sweep, 1, 2)),
-            foot_offset=np.ascontiguousarray(
-                np.stack([x.template.foot_offset for x in kd])[k], dtype=float))
-        # read-only, as a lone controller's sweeps are: the same argument types, so
-        # the batch runs the plan kernel a lone controller has compiled
-        self._k.half_sweep.setflags(write=False)
-        self._sc: dict[float, np.ndarray] = {}
+        self._tables = gait_tables([(x.gaits, x.auto) for x in kd], self.ids)
+        self._has = np.isfinite(self._tables.speed_lo)
+        body = BodyConstants(*(np.ascontiguousarray(np.concatenate(f)[k])
+                               for f in zip(*(x.body for x in kd))))
+        self._body = body._replace(kind=np.ascontiguousarray(k, dtype=np.int64))
+        reach = [x.reach_rows() for x in kd]
+        self._reach = ReachTables(reach[0].drops, *(
+            np.ascontiguousarray(np.concatenate(f)[k]) for f in list(zip(*reach))[1:]))
+        self._n_tail_max = max(len(x.character.tail) for x in kd)
+        self._sc: dict[float, object] = {}
+        self._runner = FixedEntry(plan_rows)  # the bundles' types never change
 
     def _init_state(self, chars, seeds, gaits) -> None:
-        n = self.n
-        start = np.full(n, _STAND, dtype=np.int64)
-        for i, g in enumerate(gaits):
-            if g:
-                start[i] = GAIT_IDS.index(resolve_gait_name(g, chars[i]))
-        self.theta = np.empty((n, 4))
-        self.r = np.empty((n, 4))
-        self.theta_s = np.empty(n)
-        for i in range(n):  # set-up only: the seeded generators are sequential
-            gait = self.kinds[self.kind[i]].template.gaits[GAIT_IDS[start[i]]]
-            self.theta[i], self.r[i], self.theta_s[i] = initial_oscillators(gait, int(seeds[i]))
-        self.r_s = np.ones(n)
+        rows = []
+        for i in range(self.n):  # set-up only: the seeded generators are sequential
+            g = gaits[i]
+            start = resolve_gait_name(g, chars[i]) if g else STAND
+            rows.append(self.kinds[self.kind[i]].initial_state(int(seeds[i]), start))
+        self.state = stack_states(rows, self._n_tail_max)
         self.time = 0.0
-        self.speed = np.zeros(n)
-        self.yaw_rate = np.zeros(n)
-        self.heading = np.zeros(n)
-        self.root_xz = np.zeros((n, 3))
-        self.bend = np.zeros(n)
-        self.spine_angle = np.zeros(n)
-        self.spine_smooth = np.zeros(n)
-        self.height = self._pelvis_height.copy()
-        self.drops_now = np.zeros((n, 2))
-        self.tail = np.zeros((n, self._n_tail_max, 2))
-        self.stance = np.ones((n, 4), dtype=bool)
-        feet = np.stack([k.character.rest_foot_positions() for k in self.kinds])[self.kind]
-        feet[..., Y] = 0.0
-        self.planted = feet
-        self.liftoff = feet.copy()
-        self.theta_lo = self.theta.copy()
-        self.theta_td = self.theta.copy()
-        self.swing_s = np.zeros((n, 4))
-        self.feet = feet.copy()
-        self.freq = np.ones(n)
-        # gait scheduler
-        self.current = start
-        self.source_name = start.copy()
-        self.source = np.zeros((n, _pk.NP_))
-        self.in_transition = np.zeros(n, dtype=bool)
-        self.elapsed = np.zeros(n)
-        self.duration = np.zeros(n)
-        self.params = np.stack([self.kinds[self.kind[i]].template._target_row(start[i], 0.0)
-                                for i in range(n)])
+        self.feet = self.state.feet.planted.copy()
+
+    # the state, read from the plan's bundles
+    speed = property(lambda self: self.state.motion.speed)
+    heading = property(lambda self: self.state.motion.heading)
+    yaw_rate = property(lambda self: self.state.motion.yaw_rate)
+    root_xz = property(lambda self: self.state.motion.root_xz)
+    stance = property(lambda self: self.state.feet.stance)
+    current = property(lambda self: self.state.schedule.current)
 
     @property
     def max_speed(self) -> np.ndarray:
         """Top speed of each row's character (m/s), shape (N,)."""
-        return self._max_speed
+        return self._body.max_speed
 
     # ------------------------------------------------------------ commands
     def gait_ids(self, names: Sequence[str | None]) -> np.ndarray:
@@ -247,7 +176,7 @@ class BatchController:
         for i, g in enumerate(names):
             if g:
                 ch = self.kinds[self.kind[i]].character
-                out[i] = GAIT_IDS.index(resolve_gait_name(g, ch))
+                out[i] = self.ids.index(resolve_gait_name(g, ch))
         return out
 
     def step_commands(self, commands: Sequence[Command], dt: float | None = None, *,
@@ -265,14 +194,18 @@ class BatchController:
     @property
     def labels(self) -> list[str]:
         """Gait label of each row, as :attr:`GaitScheduler.label`."""
-        return [f"{GAIT_IDS[s]}->{GAIT_IDS[c]}" if t else GAIT_IDS[c]
-                for s, c, t in zip(self.source_name, self.current, self.in_transition)]
+        sch, ids = self.state.schedule, self.ids
+        return [f"{ids[s]}->{ids[c]}" if t else ids[c]
+                for s, c, t in zip(sch.source_name, sch.current, sch.in_transition)]
 
-    def _warn(self, key: str, hit: bool, mask, msg: str) -> None:
-        if hit and key not in self._warned:
+    def _warn(self, what: str, mask, values, msg: str) -> None:
+        """Warn once for each distinct clamp: the rows clamped and what they asked."""
+        rows = np.flatnonzero(mask)
+        key = (what, tuple(rows.tolist()), tuple(np.asarray(values)[rows].tolist()))
+        if key not in self._warned:
             self._warned.add(key)
-            warnings.warn(f"{msg} for {int(np.count_nonzero(mask))} of {self.n} characters; "
-                          "clamped", QuadsimClampWarning, stacklevel=3)
+            warnings.warn(f"{msg} for {len(rows)} of {self.n} characters; clamped",
+                          QuadsimClampWarning, stacklevel=4)
 
     # ------------------------------------------------------------ stepping
     def step(self, speed, turn_rate=None, heading=None, gait=None, dt: float | None = None,
@@ -288,7 +221,7 @@ class BatchController:
         heading : array-like, shape (N,), optional
             Heading to steer towards (rad); NaN where the turn rate is used.
         gait : array-like of int, shape (N,), optional
-            Requested gait ids (:data:`GAIT_IDS`, see :meth:`gait_ids`); -1
+            Requested gait ids (:attr:`ids`, see :meth:`gait_ids`); -1
             chooses by speed (default).
         dt : float, optional
             Step (s), default the controller's.
@@ -333,9 +266,9 @@ class BatchController:
             if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
                 raise InputError("a requested gait id is not among its character's gaits")
         # with pose, the plan kernel also packs the plans for the posing kernel
-        packed = np.empty((n, plan_columns(self._n_tail_max))) if pose else None
-        frame = self._advance(speed, turn, head, gait, self.dt if dt is None else float(dt),
-                              packed)
+        frame, packed = self._advance(speed, turn, head, gait,
+                                      self.dt if dt is None else float(dt),
+                                      plan_columns(self._n_tail_max) if pose else 0)
         if pose:
             frame.update(self._pose_packed(packed))
         return frame
@@ -366,41 +299,44 @@ class BatchController:
             out["ik_error"].append(err)
         return out
 
-    def _advance(self, v_cmd, turn, head, gait, dt, packed=None) -> dict:
+    def _advance(self, v_cmd, turn, head, gait, dt, packed_columns=0):
         sc = self._sc.get(dt)
         if sc is None:
-            sc = self._sc[dt] = step_scalars(self.settings, dt)
-        # the whole plan, compiled: the kernel a lone controller steps with
-        # (plan_kernels.plan_rows), here over N rows; the state is updated in place.
-        # From PARALLEL_ROWS rows on, one block of rows per thread
-        # (plan_rows_parallel): the same result whatever the number of threads.
-        # It also gives the stride fractions and, if asked, the packed plans
-        phase = np.empty((self.n, 4))
-        feet, fold, pitch, sway, flags, aux = run_plan(
-            self._k, self, v_cmd, turn, head, gait, sc, self.settings.cpg.substeps,
-            parallel=self.n >= PARALLEL_ROWS, phase=phase, packed=packed)
-        if len(self._warned) < 3:  # each warning is given once
-            hit = flags.any(axis=0)
-            self._warn("gait_speed", hit[0], flags[:, 0],
+            sc = self._sc[dt] = step_constants(self.settings, dt)
+        # the whole plan, compiled: the stage kernels a lone controller steps
+        # with (plan_kernels.plan_rows), here over N rows; the state is updated
+        # in place. From PARALLEL_ROWS rows on, one block of rows per thread
+        # (blocks.run_blocks): the same result whatever the number of threads.
+        cmd = CommandRows(v_cmd, turn, head, gait)
+        out = run_plan(cmd, self._body, self._tables, self._reach, sc, self.state,
+                       parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns,
+                       runner=self._runner)
+        if out.gait_speed_clamped.any():
+            self._warn("gait_speed", out.gait_speed_clamped, v_cmd,
                        "speed above what the requested gait reaches")
-            self._warn("speed", hit[1], flags[:, 1], "speed above the character's fastest gait")
-            self._warn("turn", hit[2], flags[:, 2], "turn rate beyond the character's maximum")
-        self.feet = feet
+        if out.speed_clamped.any():
+            self._warn("speed", out.speed_clamped, v_cmd,
+                       "speed above the character's fastest gait")
+        if out.turn_clamped.any():
+            self._warn("turn", out.turn_clamped, turn, "turn rate beyond the character's maximum")
+        st = self.state
+        mo, bs = st.motion, st.body
+        self.feet = out.feet
         self.time += dt
-        root = np.stack([self.root_xz[:, 0], self.height, self.root_xz[:, 2]], axis=1)
-        spine = self.spine_smooth.copy()
-        bend = self.bend.copy()
+        root = np.stack([mo.root_xz[:, 0], bs.height, mo.root_xz[:, 2]], axis=1)
+        spine = bs.spine_smooth.copy()
+        bend = mo.bend.copy()
         # the frame holds copies: the state arrays change in place at the next step
         return {
-            "root": root, "heading": self.heading.copy(), "pitch": pitch, "sway": sway,
-            "bend_yaw": bend, "bend_pitch": spine, "feet": feet,
-            "fold": fold, "toe": 0.5 * fold, "tail": self.tail.copy(), "look": 0.5 * bend,
-            "contacts": self.stance.copy(), "gait": self.current.copy(),
-            "phase": phase, "speed": self.speed.copy(),
-            "duty": self.params[:, _pk.P_DUTY].copy(), "spine": spine,
-            "heading_rate": self.yaw_rate.copy(),
-            "amplitude": np.concatenate([self.r, self.r_s[:, None]], axis=1),
-        }
+            "root": root, "heading": mo.heading.copy(), "pitch": out.pitch, "sway": out.sway,
+            "bend_yaw": bend, "bend_pitch": spine, "feet": out.feet,
+            "fold": out.fold, "toe": TOE_PER_FOLD * out.fold, "tail": bs.tail.copy(),
+            "look": LOOK_PER_BEND * bend, "contacts": st.feet.stance.copy(),
+            "gait": st.schedule.current.copy(), "phase": out.phase, "speed": mo.speed.copy(),
+            "duty": st.schedule.params.duty.copy(), "spine": spine,
+            "heading_rate": mo.yaw_rate.copy(),
+            "amplitude": np.concatenate([st.cpg.r, st.cpg.r_s[:, None]], axis=1),
+        }, out.packed
 
 
-__all__ = ["GAIT_IDS", "BatchController"]
+__all__ = ["BatchController"]

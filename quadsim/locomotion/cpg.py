@@ -22,25 +22,23 @@ The amplitude equation has a closed-form solution, used exactly (so any
 starting amplitude converges, however stiff the gain); the phases are
 integrated by fixed-step RK4 with sub-steps.
 
-:func:`cpg_step` is the vectorised numpy form (the reference);
-:func:`cpg_step_rows` is the same step compiled (numba), looping over rows
-of networks, which the controllers step with -- one row for a lone
-character, N for :class:`~quadsim.locomotion.batch.BatchController`.
+:func:`cpg_step_rows` is the step, compiled (numba), looping over rows of
+networks; the controllers step with it -- one row for a lone character, N
+for :class:`~quadsim.locomotion.batch.BatchController` -- and
+:func:`cpg_step` is its face for arrays of any batch shape.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
+from quadsim.locomotion.rowmath import inner
+
 TWO_PI = 2.0 * np.pi
-#: legs driving the spine oscillator (LF and LH), see module docstring; the
-#: derivatives take them as columns 0 and 2
-_SPINE_DRIVERS = np.array([0, 2])
 
 
 @dataclass(frozen=True)
@@ -68,58 +66,20 @@ class CPGParams:
     substeps: int = 2
 
 
-def amplitude_after(r, t, p: CPGParams):
-    """Exact solution of ``dr/dt = a (mu - r^2) r`` after ``t`` seconds.
-
-    ``r(t)^2 = mu / (1 + (mu / r0^2 - 1) exp(-2 a mu t))``; ``r0 = 0`` stays 0
-    (the unstable fixed point), any ``r0 > 0`` tends to ``sqrt(mu)``.
-    """
-    r = np.asarray(r, dtype=float)
-    r2 = r * r
-    safe = np.where(r2 > 0, r2, 1.0)
-    decay = np.exp(-2.0 * p.gain * p.mu * t)
-    out = np.sqrt(p.mu / (1.0 + (p.mu / safe - 1.0) * decay))
-    return np.where(r2 > 0, out, 0.0)
-
-
-#: the leg pairs (i, j), i < j, of the coupling terms
-_PAIR_I = np.array([0, 0, 0, 1, 1, 2])
-_PAIR_J = np.array([1, 2, 3, 2, 3, 3])
-
-
-def _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, p: CPGParams):
-    # theta (..., 4), r (..., 4), theta_s (...), omega (...), phi (..., 6) the
-    # offsets phi_ij of the pairs i < j, psi_s (..., 2) the spine drivers' 2 pi psi_j.
-    # phi is antisymmetric and sin odd, so the (j, i) term is minus the (i, j)
-    # one: six sines per network, not sixteen (the diagonal's sin(0) adds nothing)
-    sn = np.sin(theta[..., _PAIR_J] - theta[..., _PAIR_I] - phi)  # theta_j - theta_i - phi_ij
-    s01, s02, s03, s12, s13, s23 = np.moveaxis(sn, -1, 0)
-    r0, r1, r2, r3 = np.moveaxis(r, -1, 0)
-    w = p.coupling
-    dtheta = np.stack([omega + w * (r1 * s01 + r2 * s02 + r3 * s03),
-                       omega + w * (r0 * -s01 + r2 * s12 + r3 * s13),
-                       omega + w * (r0 * -s02 + r1 * -s12 + r3 * s23),
-                       omega + w * (r0 * -s03 + r1 * -s13 + r2 * -s23)], axis=-1)
-    # spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (i.e. theta_LH)
-    dtheta_s = omega + p.spine_coupling * (r0 * np.sin(theta[..., 0] + psi_s[..., 0] - theta_s)
-                                           + r2 * np.sin(theta[..., 2] + psi_s[..., 1] - theta_s))
-    return dtheta, dtheta_s
-
-
 def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGParams()):
-    """Advance the network by ``dt`` seconds.
+    """Advance the network by ``dt`` seconds (:func:`cpg_step_rows` on any batch shape).
 
     Parameters
     ----------
-    theta : ndarray, shape (..., 4)
+    theta : array-like, shape (..., 4)
         Unwrapped leg phases (rad), leg order LF, RF, LH, RH.
-    r : ndarray, shape (..., 4)
+    r : array-like, shape (..., 4)
         Leg oscillator amplitudes.
-    theta_s, r_s : ndarray, shape (...)
+    theta_s, r_s : array-like, shape (...)
         Spine oscillator phase (rad) and amplitude.
-    omega : ndarray, shape (...)
+    omega : array-like, shape (...)
         Stride angular frequency ``2 pi f`` (rad/s).
-    psi : ndarray, shape (..., 4)
+    psi : array-like, shape (..., 4)
         Target touchdown phases (fractions of a stride after LH's).
     dt : float
         Step (s).
@@ -129,35 +89,36 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGPara
     theta, r, theta_s, r_s : ndarrays
         The advanced state (new arrays).
     """
-    omega = np.asarray(omega, dtype=float)
-    psi = np.asarray(psi, dtype=float)
-    h = dt / params.substeps
     theta = np.asarray(theta, dtype=float)
-    theta_s = np.asarray(theta_s, dtype=float)
-    # constant over the step: the offsets phi_ij and the spine drivers' phases
-    phi = TWO_PI * (psi[..., _PAIR_I] - psi[..., _PAIR_J])
-    psi_s = TWO_PI * psi[..., _SPINE_DRIVERS]
-    for _ in range(params.substeps):
-        r_mid = amplitude_after(r, 0.5 * h, params)
-        r_end = amplitude_after(r, h, params)
-        k1 = _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, params)
-        k2 = _phase_derivatives(theta + 0.5 * h * k1[0], r_mid, theta_s + 0.5 * h * k1[1],
-                                omega, phi, psi_s, params)
-        k3 = _phase_derivatives(theta + 0.5 * h * k2[0], r_mid, theta_s + 0.5 * h * k2[1],
-                                omega, phi, psi_s, params)
-        k4 = _phase_derivatives(theta + h * k3[0], r_end, theta_s + h * k3[1],
-                                omega, phi, psi_s, params)
-        theta = theta + (h / 6.0) * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        theta_s = theta_s + (h / 6.0) * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        r = r_end
-        r_s = amplitude_after(r_s, h, params)
-    return theta, r, theta_s, r_s
+    r = np.asarray(r, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    batch = np.broadcast_shapes(theta.shape[:-1], r.shape[:-1], np.shape(theta_s),
+                                np.shape(r_s), np.shape(omega), psi.shape[:-1])
+
+    def rows(x, tail=()):
+        return np.ascontiguousarray(np.broadcast_to(x, batch + tail), dtype=float).reshape(
+            (-1,) + tail)
+
+    th, rr, ts, rs = cpg_step_rows(rows(theta, (4,)), rows(r, (4,)), rows(theta_s), rows(r_s),
+                                   rows(omega), rows(psi, (4,)), float(dt), params.mu,
+                                   params.gain, params.coupling, params.spine_coupling,
+                                   int(params.substeps))
+    return (th.reshape(batch + (4,)), rr.reshape(batch + (4,)), ts.reshape(batch),
+            rs.reshape(batch))
 
 
-@njit(cache=True)
-def _rates(out, t0, t1, t2, t3, ts, r0, r1, r2, r3, omega, w, ws, p01, p02, p03, p12, p13,
-           p23, q0, q2):
-    """The phase derivatives of one network (:func:`_phase_derivatives`) into ``out`` (5,)."""
+@inner
+def _rates(out, t, r, omega, w, ws, p):
+    """The phase derivatives of one network into ``out`` (5,): legs then
+    spine. ``t`` (t0, t1, t2, t3, spine) phases, ``r`` (r0..r3) amplitudes,
+    ``w`` and ``ws`` the leg and spine couplings, ``p`` the offsets
+    (p01, p02, p03, p12, p13, p23) of the pairs ``i < j`` and the spine
+    drivers' phases (q0, q2)."""
+    t0, t1, t2, t3, ts = t
+    r0, r1, r2, r3 = r
+    p01, p02, p03, p12, p13, p23, q0, q2 = p
+    # phi is antisymmetric and sin odd, so the (j, i) term is minus the (i, j)
+    # one: six sines per network, not sixteen (the diagonal's sin(0) adds nothing)
     s01 = math.sin(t1 - t0 - p01)
     s02 = math.sin(t2 - t0 - p02)
     s03 = math.sin(t3 - t0 - p03)
@@ -168,12 +129,16 @@ def _rates(out, t0, t1, t2, t3, ts, r0, r1, r2, r3, omega, w, ws, p01, p02, p03,
     out[1] = omega + w * (r0 * -s01 + r2 * s12 + r3 * s13)
     out[2] = omega + w * (r0 * -s02 + r1 * -s12 + r3 * s23)
     out[3] = omega + w * (r0 * -s03 + r1 * -s13 + r2 * -s23)
+    # the spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (theta_LH)
     out[4] = omega + ws * (r0 * math.sin(t0 + q0 - ts) + r2 * math.sin(t2 + q2 - ts))
 
 
-@njit(cache=True)
+@inner
 def _amplitude(x, mu, decay):
-    """:func:`amplitude_after` of one amplitude, its decay factor given."""
+    """The exact solution of ``dr/dt = a (mu - r^2) r`` for one amplitude:
+    ``r(t)^2 = mu / (1 + (mu / r0^2 - 1) decay)`` with ``decay =
+    exp(-2 a mu t)``; ``r0 = 0`` stays 0 (the unstable fixed point), any
+    ``r0 > 0`` tends to ``sqrt(mu)``."""
     x2 = x * x
     return math.sqrt(mu / (1.0 + (mu / x2 - 1.0) * decay)) if x2 > 0 else 0.0
 
@@ -181,7 +146,7 @@ def _amplitude(x, mu, decay):
 @njit(cache=True)
 def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
                   spine_coupling, substeps):
-    """:func:`cpg_step` for N networks, compiled.
+    """One step of N networks, compiled: the CPG stage of the plan.
 
     Parameters
     ----------
@@ -239,17 +204,15 @@ def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
             m2, m3 = _amplitude(r2, mu, decay_mid), _amplitude(r3, mu, decay_mid)
             e0, e1 = _amplitude(r0, mu, decay_end), _amplitude(r1, mu, decay_end)
             e2, e3 = _amplitude(r2, mu, decay_end), _amplitude(r3, mu, decay_end)
-            _rates(a, t0, t1, t2, t3, ts, r0, r1, r2, r3, om, coupling, spine_coupling,
-                   p01, p02, p03, p12, p13, p23, q0, q2)
-            _rates(b, t0 + hh * a[0], t1 + hh * a[1], t2 + hh * a[2], t3 + hh * a[3],
-                   ts + hh * a[4], m0, m1, m2, m3, om, coupling, spine_coupling,
-                   p01, p02, p03, p12, p13, p23, q0, q2)
-            _rates(c, t0 + hh * b[0], t1 + hh * b[1], t2 + hh * b[2], t3 + hh * b[3],
-                   ts + hh * b[4], m0, m1, m2, m3, om, coupling, spine_coupling,
-                   p01, p02, p03, p12, p13, p23, q0, q2)
-            _rates(d, t0 + h * c[0], t1 + h * c[1], t2 + h * c[2], t3 + h * c[3],
-                   ts + h * c[4], e0, e1, e2, e3, om, coupling, spine_coupling,
-                   p01, p02, p03, p12, p13, p23, q0, q2)
+            p = (p01, p02, p03, p12, p13, p23, q0, q2)
+            rm = (m0, m1, m2, m3)
+            _rates(a, (t0, t1, t2, t3, ts), (r0, r1, r2, r3), om, coupling, spine_coupling, p)
+            _rates(b, (t0 + hh * a[0], t1 + hh * a[1], t2 + hh * a[2], t3 + hh * a[3],
+                       ts + hh * a[4]), rm, om, coupling, spine_coupling, p)
+            _rates(c, (t0 + hh * b[0], t1 + hh * b[1], t2 + hh * b[2], t3 + hh * b[3],
+                       ts + hh * b[4]), rm, om, coupling, spine_coupling, p)
+            _rates(d, (t0 + h * c[0], t1 + h * c[1], t2 + h * c[2], t3 + h * c[3],
+                       ts + h * c[4]), (e0, e1, e2, e3), om, coupling, spine_coupling, p)
             t0 = t0 + h6 * (a[0] + 2 * b[0] + 2 * c[0] + d[0])
             t1 = t1 + h6 * (a[1] + 2 * b[1] + 2 * c[1] + d[1])
             t2 = t2 + h6 * (a[2] + 2 * b[2] + 2 * c[2] + d[2])

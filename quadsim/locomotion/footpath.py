@@ -1,10 +1,19 @@
-"""Swing-foot paths: Catmull-Rom splines from lift-off to touchdown."""
+"""Swing-foot paths: Catmull-Rom splines from lift-off to touchdown.
+
+:func:`swing_into` is the compiled swing path the feet stage
+(:func:`quadsim.locomotion.feet.feet_rows`) runs; :func:`swing_position` is
+its face for arrays. :func:`catmull_rom` is the general spline.
+"""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from quadsim.frames import UP
+from quadsim.locomotion.rowmath import inner
 
 
 def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -88,19 +97,49 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
 def swing_position(liftoff, touchdown, height, s) -> np.ndarray:
     """Foot position along its swing path at progress ``s`` in [0, 1], shape (..., 3).
 
-    ``catmull_rom(swing_control_points(liftoff, touchdown, height), s)``,
-    building only the four control points of each point's segment.
+    ``catmull_rom(swing_control_points(liftoff, touchdown, height), s)``, by
+    the feet stage's own compiled :func:`swing_into`.
     """
     a = np.asarray(liftoff, dtype=float)
     b = np.asarray(touchdown, dtype=float)
     h = np.asarray(height, dtype=float)
     s = np.asarray(s, dtype=float)
     batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape)
-    s = np.broadcast_to(np.minimum(np.maximum(s, 0.0), 1.0), batch)
-    nseg = len(SWING_KNOTS) - 3
-    x = s * nseg
-    i = np.minimum(np.floor(x).astype(int), nseg - 1)
-    knots = SWING_KNOTS[i[..., None] + np.arange(4)]  # (..., 4, 2)
-    P = (a[..., None, :] + knots[..., :1] * (b - a)[..., None, :]
-         + knots[..., 1:] * (h[..., None, None] * UP))
-    return _segment(P[..., 0, :], P[..., 1, :], P[..., 2, :], P[..., 3, :], (x - i)[..., None])
+
+    def rows(x, tail=()):
+        return np.ascontiguousarray(np.broadcast_to(x, batch + tail)).reshape((-1,) + tail)
+
+    out = np.empty((math.prod(batch), 1, 3))
+    _swing_rows(rows(a, (3,)), rows(b, (3,)), rows(h), rows(s), out)
+    return out.reshape(batch + (3,))
+
+
+@inner
+def swing_into(a, b, height, s, out, n, i):
+    """The swing path from ``a`` to ``b`` (3-tuples, m) with clearance
+    ``height`` (m) at progress ``s`` into ``out[n, i]`` (the knots
+    :data:`SWING_KNOTS`, each of the four segments a quarter of the swing)."""
+    x = min(max(s, 0.0), 1.0) * 4
+    j = min(math.floor(x), 3)
+    t = x - j
+    t2, t3 = t * t, t * t * t
+    for c in range(3):
+        ac = a[c]
+        dc = b[c] - ac
+        up = height if c == 1 else 0.0
+        p0 = ac + _KNOTS[j, 0] * dc + _KNOTS[j, 1] * up
+        p1 = ac + _KNOTS[j + 1, 0] * dc + _KNOTS[j + 1, 1] * up
+        p2 = ac + _KNOTS[j + 2, 0] * dc + _KNOTS[j + 2, 1] * up
+        p3 = ac + _KNOTS[j + 3, 0] * dc + _KNOTS[j + 3, 1] * up
+        out[n, i, c] = 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
+                              + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
+
+
+@njit(cache=True)
+def _swing_rows(a, b, h, s, out):
+    for n in range(a.shape[0]):
+        swing_into((a[n, 0], a[n, 1], a[n, 2]), (b[n, 0], b[n, 1], b[n, 2]), h[n], s[n], out,
+                   n, 0)
+
+
+_KNOTS = np.ascontiguousarray(SWING_KNOTS, dtype=float)

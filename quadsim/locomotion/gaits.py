@@ -23,9 +23,18 @@ from quadsim.errors import InputError
 from quadsim.frames import GRAVITY
 from quadsim.skeleton.character import Character, characters_dir
 
-GAIT_NAMES = ("walk", "amble", "trot", "rack", "pace", "canter",
-              "transverse_gallop", "rotary_gallop")
+#: The standing state: every foot planted (duty factor 1), entered when the
+#: commanded speed is zero and left when it is not. Its id follows the gaits'.
+STAND = "stand"
+#: Other names a user may give a gait by.
 ALIASES = {"gallop": "transverse_gallop"}
+#: Default foot clearance at mid-swing (fraction of the hip height) and
+#: stride coefficient, for a gait whose table gives none.
+DEFAULT_SWING_HEIGHT = 0.12
+DEFAULT_STRIDE = 2.3
+#: Default body drop (fraction of the hip height) of a gait whose table
+#: gives none.
+DEFAULT_DROP = 0.03
 _FIELDS = {"duty", "phase", "froude", "speed", "stride", "swing_height", "spine",
            "spine_deg", "drop"}
 
@@ -118,11 +127,27 @@ def _shared_table(path: str) -> dict:
         raise InputError(f"{path}: not valid TOML ({e})") from None
 
 
+def _table_path() -> str:
+    return str(characters_dir() / "gaits.toml")
+
+
+def gait_names() -> tuple[str, ...]:
+    """Every gait of the shared gait table (``gaits.toml``), in its order."""
+    return tuple(k for k, v in _shared_table(_table_path()).items() if isinstance(v, dict))
+
+
+def gait_ids() -> tuple[str, ...]:
+    """The gait ids of the compiled plan: the gait table's gaits in its
+    order, then :data:`STAND` (a gait's id is its index here)."""
+    return gait_names() + (STAND,)
+
+
 def resolve_gait_name(name: str, character: Character | None = None) -> str:
     """Canonical gait identifier; ``InputError`` if unknown (to the character)."""
     key = ALIASES.get(str(name).strip().lower(), str(name).strip().lower())
-    allowed = list(character.locomotion.get("gaits", GAIT_NAMES)) if character else GAIT_NAMES
-    if key not in GAIT_NAMES or key not in allowed:
+    known = gait_names()
+    allowed = list(character.locomotion.get("gaits", known)) if character else list(known)
+    if key not in known or key not in allowed:
         who = f" for {character.id}" if character else ""
         raise InputError(f"unknown gait {name!r}{who}; choose one of: {', '.join(allowed)}"
                          + (" (or 'gallop' for transverse_gallop)"
@@ -142,16 +167,17 @@ def _gait_table(character: Character) -> dict[str, Gait]:
     hit = _TABLES.get(id(character))
     if hit is not None and hit.get("__owner__") is character:
         return {k: v for k, v in hit.items() if k != "__owner__"}
-    src = str(characters_dir() / "gaits.toml")
+    src = _table_path()
     shared = _shared_table(src)
+    known = gait_names()
     where_c = str(character.path or character.id)
-    names = character.locomotion.get("gaits", list(GAIT_NAMES))
+    names = character.locomotion.get("gaits", list(known))
     h = character.hip_height
     out: dict[str, Gait] = {}
     for n in names:
-        if n not in GAIT_NAMES:
+        if n not in known:
             raise InputError(f"{where_c}: locomotion.gaits names unknown gait {n!r}; "
-                             f"known: {', '.join(GAIT_NAMES)}")
+                             f"known: {', '.join(known)}")
         if n not in shared:
             raise InputError(f"{src}: no table for gait {n!r}")
         d = dict(shared[n])
@@ -185,16 +211,18 @@ def _gait_table(character: Character) -> dict[str, Gait]:
         ph_arr.setflags(write=False)
         out[n] = Gait(
             name=n, duty_range=duty, phases=ph_arr, speed_range=(float(sp[0]), float(sp[1])),
-            stride_coefficient=float(d.get("stride", 2.3)),
-            swing_height=float(d.get("swing_height", 0.12)) * h,
+            stride_coefficient=float(d.get("stride", DEFAULT_STRIDE)),
+            swing_height=float(d.get("swing_height", DEFAULT_SWING_HEIGHT)) * h,
             spine=spine, spine_amplitude=math.radians(float(d.get("spine_deg", 3.0))),
-            drop=float(d.get("drop", _DEFAULT_DROP.get(n, 0.03))),
+            drop=float(d.get("drop", _DEFAULT_DROP.get(n, DEFAULT_DROP))),
             hip_height=h,
         )
     _TABLES[id(character)] = dict(out, __owner__=character)
     return out
 
 
+#: Body drops of the shipped gaits whose table gives none (a gait's own
+#: ``drop`` in the table wins).
 _DEFAULT_DROP = {"walk": 0.01, "amble": 0.03, "rack": 0.04, "trot": 0.04, "pace": 0.04,
                  "canter": 0.06, "transverse_gallop": 0.08, "rotary_gallop": 0.08}
 

@@ -4,18 +4,14 @@
 all of one character) into local joint rotations, world joint positions and
 IK errors, compiled (numba): blocks of :data:`CHUNK` rows go through the
 trunk (:func:`_trunk_rows`: spine, tail, neck and the trunk's forward
-kinematics), the legs' IK (:func:`_leg_rows`) and the other joints' forward
+kinematics), the legs' IK (:func:`quadsim.kinematics.ik.leg_rows`) and the other joints' forward
 kinematics (:func:`_rest_rows`). It is the only implementation of the
 posing: :meth:`Poser.pose <quadsim.locomotion.posing.Poser.pose>` packs the
 plans of a clip or of many characters, the batch's plan kernel
 (:func:`~quadsim.locomotion.plan_kernels.plan_rows`) packs its rows as it
-plans them, the interactive step packs one frame. The array forms it
-mirrors -- :func:`~quadsim.kinematics.ik.solve_leg` and
-:func:`~quadsim.skeleton.fk.forward_kinematics` -- stay the general,
-vectorised API and the tests' reference. The kernel makes fewer
-trigonometric calls (it shares cosines and sines, and works with them in
-place of angles where it can), so the two agree to rounding (about 1e-13),
-not bit for bit.
+plans them, the interactive step packs one frame. The legs' IK is
+:func:`quadsim.kinematics.ik.leg_rows`, the kernel
+:func:`~quadsim.kinematics.ik.solve_leg` wraps.
 
 Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 ``root`` (3), ``heading``, ``pitch``, ``sway`` (2), ``bend_yaw``,
@@ -35,9 +31,16 @@ Conventions as in :mod:`quadsim.kinematics.ik`.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
-from numba import njit, prange
+from numba import njit
+
+from quadsim.kinematics.ik import leg_rows, pack_legs
+from quadsim.locomotion.rowmath import inner
+
+__all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "pack_legs", "pack_plan", "plan_columns",
+           "pose_rows"]
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -80,27 +83,6 @@ def pack_plan(plan: dict, n_tail: int) -> np.ndarray:
     if n_tail:
         out[:, TAIL:] = np.reshape(np.asarray(plan["tail"])[:, :n_tail], (T, 2 * n_tail))
     return out
-
-
-def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The four legs' :class:`~quadsim.kinematics.ik.LegGeometry` as the
-    kernel's ``leg_int``, ``leg_top``, ``leg_bones`` and ``leg_scal`` arrays
-    (see the module notes)."""
-    n_max = max(g.n_bones for g in legs)
-    leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
-    leg_top = np.zeros((len(legs), 3))
-    leg_bones = np.zeros((len(legs), 7, n_max))
-    leg_scal = np.zeros((len(legs), 5))
-    for i, g in enumerate(legs):
-        n = g.n_bones
-        leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
-        leg_int[i, 4:4 + n + 1] = g.chain
-        leg_top[i] = g.top_offset
-        for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
-                                 np.cos(g.rest_angles), np.sin(g.rest_angles))):
-            leg_bones[i, r, :n] = arr
-        leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
-    return leg_int, leg_top, leg_bones, leg_scal
 
 
 @njit(cache=True, inline="always")
@@ -171,7 +153,7 @@ def _fk_joint(t, g, j, p, how, frame, local, offsets, G, positions):
     G[g, j, 2, 2] = a20 * l02 + a21 * l12 + a22 * l22
 
 
-@njit(cache=True)
+@inner
 def _layout(parents, spine, tail, neck, trunk, leg_int):
     """What :func:`pose_rows` works out once per call from the skeleton.
 
@@ -231,51 +213,7 @@ def _layout(parents, spine, tail, neck, trunk, leg_int):
     return how, frame, fixed, rest
 
 
-@njit(cache=True)
-def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
-    """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
-    towards C = (``cd``, ``cf``), the target less the post bones (see
-    ``ik._solve_pair``), as cosines and sines.
-
-    Returns the upper bone's cosine and sine, the lower bone's, the lower
-    bone's vector (its angle is ``atan2(y, x)``) and how far the foot falls
-    short of the target (m). The law of cosines is taken in cosines and
-    sines: those of the direction to C (``gam``) and of the bend (``bend *
-    delta``, its sine from its cosine for a bend of +-1) give the upper
-    bone's as those of a sum (equal to rounding); the upper bone's angle
-    itself is never needed.
-    """
-    vd = cd - qd
-    vf = cf - qf
-    r_true = math.sqrt(vd * vd + vf * vf)
-    r = min(max(r_true, abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
-    cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
-    cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
-    if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
-        cb = cos_delta
-        sb = bend * math.sqrt((1.0 - cos_delta) * (1.0 + cos_delta))
-    else:
-        turn = bend * math.acos(cos_delta)
-        cb = math.cos(turn)
-        sb = math.sin(turn)
-    c0 = cg * cb - sg * sb  # the upper bone at gam + bend * delta
-    s0 = sg * cb + cg * sb
-    x = qd + r * cg - (qd + l1 * c0)
-    y = qf + r * sg - (qf + l1 * s0)
-    c1, s1 = _direction(x, y, math.sqrt(x * x + y * y))
-    return c0, s0, c1, s1, x, y, abs(r_true - r)
-
-
-@njit(cache=True)
-def _direction(x, y, h):
-    """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
-    if h > 0.0:
-        return x / h, y / h
-    a = math.atan2(y, x)
-    return math.cos(a), math.sin(a)
-
-
-@njit(cache=True)
+@inner
 def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
                 local, positions, G):
     """Rows ``a`` to ``b`` of :func:`pose_rows` up to the legs: the pelvis,
@@ -339,142 +277,7 @@ def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, 
                 _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
 
 
-@njit(cache=True)
-def _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, local, err):
-    """The legs' IK (``ik.solve_leg``, leg by leg) in rows ``a`` to ``b``, from
-    their parents' world frames ``G[t - a]`` and positions: writes the
-    chains' local rotations and the misses ``err`` (m).
-
-    The bones' in-plane angles ``phi`` are carried with their cosines and
-    sines, from which the pair (:func:`_solve_pair`) and the local rotations
-    follow without more trigonometry. A limit pass that moves no post bone
-    would solve the same pair again, so the pair is solved again only after
-    a pass that does (the joint limits rarely bind in a stride).
-    """
-    n_max = leg_bones.shape[2]
-    phi = np.empty(n_max)
-    cphi = np.empty(n_max)
-    sphi = np.empty(n_max)
-    for t in range(a, b):
-        g = t - a
-        for i in range(leg_int.shape[0]):
-            n = leg_int[i, 0]
-            k0 = leg_int[i, 1]
-            p = leg_int[i, 2]
-            limited = leg_int[i, 3]
-            bend, pre_gain, post_gain = leg_scal[i, 0], leg_scal[i, 1], leg_scal[i, 2]
-            toe_angle, rest_leg = leg_scal[i, 3], leg_scal[i, 4]
-            l1 = leg_bones[i, 0, k0]
-            l2 = leg_bones[i, 0, k0 + 1]
-            ox, oy, oz = leg_top[i, 0], leg_top[i, 1], leg_top[i, 2]
-            ex = plan[t, FEET + 3 * i] - (positions[t, p, 0] + (
-                G[g, p, 0, 0] * ox + G[g, p, 0, 1] * oy + G[g, p, 0, 2] * oz))
-            ey = plan[t, FEET + 3 * i + 1] - (positions[t, p, 1] + (
-                G[g, p, 1, 0] * ox + G[g, p, 1, 1] * oy + G[g, p, 1, 2] * oz))
-            ez = plan[t, FEET + 3 * i + 2] - (positions[t, p, 2] + (
-                G[g, p, 2, 0] * ox + G[g, p, 2, 1] * oy + G[g, p, 2, 2] * oz))
-            # the target in the parent's frame
-            d0 = G[g, p, 0, 0] * ex + G[g, p, 1, 0] * ey + G[g, p, 2, 0] * ez
-            d1 = G[g, p, 0, 1] * ex + G[g, p, 1, 1] * ey + G[g, p, 2, 1] * ez
-            d2 = G[g, p, 0, 2] * ex + G[g, p, 1, 2] * ey + G[g, p, 2, 2] * ez
-            # abduction a = atan2(d0, -d1) about the parent's forward axis
-            # brings it into the leg's plane (only its cosine and sine are used)
-            rho = math.sqrt(d0 * d0 + d1 * d1)
-            if rho > 0.0:
-                ca = -d1 / rho
-                sa = d0 / rho
-            else:
-                ab = math.atan2(d0, -d1)
-                ca, sa = math.cos(ab), math.sin(ab)
-            down_t = -(d1 * ca - d0 * sa)
-            fwd_t = d2
-            # world down in the leg plane
-            gy = -(G[g, p, 0, 1] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
-            phi_down = math.atan2(G[g, p, 2, 1] * -1.0, -gy)
-            swing = math.atan2(fwd_t, down_t) - rest_leg
-            qd = 0.0
-            qf = 0.0
-            for k in range(k0):  # pre bones swing with the leg
-                ang = leg_bones[i, 1, k] + pre_gain * swing
-                phi[k] = ang
-                cphi[k] = math.cos(ang)
-                sphi[k] = math.sin(ang)
-                qd = qd + leg_bones[i, 0, k] * cphi[k]
-                qf = qf + leg_bones[i, 0, k] * sphi[k]
-            for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded
-                ang = leg_bones[i, 1, k] + phi_down + post_gain * swing \
-                    + leg_bones[i, 2, k] * plan[t, FOLD + i]
-                phi[k] = ang
-                cphi[k] = math.cos(ang)
-                sphi[k] = math.sin(ang)
-            # post joints inside their limits, then the pair again (twice); a
-            # pass that moves no bone would solve the same pair again: done
-            for rep in range(3 if limited else 1):
-                if rep:
-                    moved = False
-                    for k in range(k0 + 2, n):
-                        above = leg_bones[i, 1, k - 1] - phi[k - 1]
-                        rel = (leg_bones[i, 1, k] - phi[k]) - above
-                        lo = leg_bones[i, 3, k]
-                        hi = leg_bones[i, 4, k]
-                        if not (rel >= lo and rel <= hi):
-                            rel = min(max(rel, lo), hi)
-                            ang = leg_bones[i, 1, k] - above - rel
-                            phi[k] = ang
-                            cphi[k] = math.cos(ang)
-                            sphi[k] = math.sin(ang)
-                            moved = True
-                    if not moved:
-                        break
-                cd = 0.0
-                cf = 0.0
-                for k in range(k0 + 2, n):
-                    cd += leg_bones[i, 0, k] * cphi[k]
-                    cf += leg_bones[i, 0, k] * sphi[k]
-                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf,
-                                                            down_t - cd, fwd_t - cf)
-                cphi[k0], sphi[k0], cphi[k0 + 1], sphi[k0 + 1] = c0, s0, c1, s1
-                if limited:
-                    phi[k0 + 1] = math.atan2(y, x)
-            err[t, i] = reached
-            # local rotations about +X by rel_k = cum_k - cum_(k-1), where
-            # cum_k = A0_k - phi_k (the foot's: toe_angle - (phi_down + pi / 2
-            # + toe)), as the cosine and sine of angle differences
-            pc = 1.0
-            ps = 0.0
-            for k in range(n + 1):
-                if k < n:  # cos and sin of A0_k - phi_k
-                    cc = leg_bones[i, 5, k] * cphi[k] + leg_bones[i, 6, k] * sphi[k]
-                    cs = leg_bones[i, 6, k] * cphi[k] - leg_bones[i, 5, k] * sphi[k]
-                else:
-                    cum = toe_angle - (phi_down + math.pi / 2 + plan[t, TOE + i])
-                    cc = math.cos(cum)
-                    cs = math.sin(cum)
-                cb = cc * pc + cs * ps
-                sb = cs * pc - cc * ps
-                pc = cc
-                ps = cs
-                j = leg_int[i, 4 + k]
-                if k == 0:  # R_z(a) @ R_x(rel)
-                    local[t, j, 0, 0] = ca
-                    local[t, j, 0, 1] = -sa * cb
-                    local[t, j, 0, 2] = sa * sb
-                    local[t, j, 1, 0] = sa
-                    local[t, j, 1, 1] = ca * cb
-                    local[t, j, 1, 2] = -ca * sb
-                else:
-                    local[t, j, 0, 0] = 1.0
-                    local[t, j, 0, 1] = 0.0
-                    local[t, j, 0, 2] = 0.0
-                    local[t, j, 1, 0] = 0.0
-                    local[t, j, 1, 1] = cb
-                    local[t, j, 1, 2] = -sb
-                local[t, j, 2, 0] = 0.0
-                local[t, j, 2, 1] = sb
-                local[t, j, 2, 2] = cb
-
-
-@njit(cache=True)
+@inner
 def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
     """Forward kinematics of the joints ``rest`` in rows ``a`` to ``b``, from
     the trunk's world frames ``G[t - a]``."""
@@ -490,15 +293,11 @@ def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
 CHUNK = 32
 
 
-@njit(cache=True)
-def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
-              leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
-    """Pose T packed plans of one character (compiled).
+class PoseRig(NamedTuple):
+    """A character's constants for :func:`pose_rows`.
 
-    Parameters
+    Attributes
     ----------
-    plan : ndarray, shape (T, F)
-        Packed plans (:func:`pack_plan`).
     parents : ndarray of int, shape (J,)
         Skeleton parents, ``parents[j] < j``.
     offsets : ndarray, shape (J, 3)
@@ -513,6 +312,30 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
     thorax : int
     leg_int, leg_top, leg_bones, leg_scal : ndarray
         The legs (:func:`pack_legs`).
+    """
+
+    parents: np.ndarray
+    offsets: np.ndarray
+    spine: np.ndarray
+    tail: np.ndarray
+    neck: np.ndarray
+    trunk: np.ndarray
+    thorax: int
+    leg_int: np.ndarray
+    leg_top: np.ndarray
+    leg_bones: np.ndarray
+    leg_scal: np.ndarray
+
+
+@njit(cache=True, nogil=True)
+def pose_rows(plan, rig, local, positions, err):
+    """Pose T packed plans of one character (compiled).
+
+    Parameters
+    ----------
+    plan : ndarray, shape (T, F)
+        Packed plans (:func:`pack_plan`).
+    rig : PoseRig
     local : ndarray, shape (T, J, 3, 3)
         Output: local rotations.
     positions : ndarray, shape (T, J, 3)
@@ -530,6 +353,10 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
     arrays to helpers inside their loops: each such reference costs an
     atomic reference count, which threads sharing the arrays contend for.
     """
+    parents, offsets, spine, tail, neck, trunk, thorax = rig[:7]
+    leg_int, leg_top, leg_bones, leg_scal = rig[7:]
+    legs = (leg_int, leg_top, leg_bones, leg_scal)
+    cols = np.array([FEET, FOLD, TOE])  # an array: solve_leg's call shares the compiled IK
     T = plan.shape[0]
     G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
     how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
@@ -537,33 +364,10 @@ def pose_rows(plan, parents, offsets, spine, tail, neck, trunk, thorax,
         b = min(T, a + CHUNK)
         _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
                     local, positions, G)
-        _leg_rows(plan, a, b, leg_int, leg_top, leg_bones, leg_scal, G, positions, local, err)
+        leg_rows(plan, cols, a, b, legs, G, positions, local, err)
         _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 
 
-#: Fewest rows for which :func:`pose_rows_parallel` splits the work over threads.
+#: Fewest rows for which the posing and the plan are split over threads
+#: (:func:`quadsim.locomotion.blocks.run_blocks`).
 PARALLEL_ROWS = 256
-
-
-@njit(cache=True, parallel=True)
-def pose_rows_parallel(n_blocks, plan, parents, offsets, spine, tail, neck, trunk, thorax,
-                       leg_int, leg_top, leg_bones, leg_scal, local, positions, err):
-    """:func:`pose_rows` with the rows split into ``n_blocks`` blocks, run on threads.
-
-    Rows are independent and each block runs :func:`pose_rows` with its own
-    scratch arrays, so the result is the same as :func:`pose_rows`' whatever
-    the number of blocks or threads. ``n_blocks`` is passed in (the caller
-    gives ``numba.get_num_threads()``, one block per core by default) rather
-    than asked for inside, which would keep numba from caching the kernel.
-    The other parameters are :func:`pose_rows`'.
-    """
-    T = plan.shape[0]
-    n = max(n_blocks, 1)
-    size = (T + n - 1) // n
-    for b in prange(n):
-        a = b * size
-        e = min(T, a + size)
-        if a < e:
-            pose_rows(plan[a:e], parents, offsets, spine, tail, neck, trunk, thorax,
-                      leg_int, leg_top, leg_bones, leg_scal, local[a:e], positions[a:e],
-                      err[a:e])

@@ -15,16 +15,16 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import get_num_threads
 
 from quadsim.kinematics.ik import LegGeometry, leg_geometry
+from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.pose_kernel import (
     PARALLEL_ROWS,
+    PoseRig,
     pack_legs,
     pack_plan,
     plan_columns,
     pose_rows,
-    pose_rows_parallel,
 )
 from quadsim.skeleton.character import Character
 
@@ -119,34 +119,23 @@ class Poser:
         positions = np.empty((T, J, 3))
         err = np.empty((T, 4))
         rows = np.ascontiguousarray(rows, dtype=float)
-        if T >= PARALLEL_ROWS:
-            pose_rows_parallel(get_num_threads(), rows, *self._kernel_args, local, positions, err)
+        if not rows.flags.writeable:  # the one array type the entry is called with
+            rows = rows.copy()
+        rig, kernel = self.rig, self._entry
+        if T >= PARALLEL_ROWS:  # blocks of rows on threads: the same result
+            run_blocks(lambda a, e: kernel(rows[a:e], rig, local[a:e], positions[a:e],
+                                           err[a:e]), T)
         else:
-            pose_rows(rows, *self._kernel_args, local, positions, err)
+            kernel(rows, rig, local, positions, err)
         return local, positions, err
 
-    def pose_one(self, plan: dict) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:meth:`pose_packed` of one frame's plan in plain floats and lists
-        (the interactive step's raw plan).
-
-        Returns
-        -------
-        local : ndarray, shape (J, 3, 3)
-        positions : ndarray, shape (J, 3)
-            World position of every joint (m).
-        ik_error : ndarray, shape (4,)
-        """
-        feet = plan["feet"]
-        vals = [*plan["root"], plan["heading"], plan["pitch"], *plan["sway"],
-                plan["bend_yaw"], plan["bend_pitch"], *feet[0], *feet[1], *feet[2], *feet[3],
-                *plan["fold"], *plan["toe"], plan["look"]]
-        for pitch_yaw in plan["tail"]:
-            vals.extend(pitch_yaw)
-        local, positions, err = self.pose_packed(np.array(vals, dtype=float)[None])
-        return local[0], positions[0], err[0]
+    @cached_property
+    def _entry(self) -> FixedEntry:
+        """:func:`pose_rows` called for this character's arrays, skipping the dispatch."""
+        return FixedEntry(pose_rows)
 
     @cached_property
-    def _kernel_args(self) -> tuple:
+    def rig(self) -> PoseRig:
         """The character's constants as :func:`pose_rows` takes them."""
         ch = self.character
         sk = ch.skeleton
@@ -155,6 +144,6 @@ class Poser:
         def ints(x):  # fresh writable copies: one compiled signature for every character
             return np.array(x, dtype=np.int64)
 
-        return (ints(sk.parents), np.array(sk.offsets, dtype=float),
-                ints(ch.spine[1:]), ints(ch.tail), ints(ch.neck), ints(trunk),
-                int(ch.spine[-1]), *pack_legs(self.legs))
+        return PoseRig(ints(sk.parents), np.array(sk.offsets, dtype=float),
+                       ints(ch.spine[1:]), ints(ch.tail), ints(ch.neck), ints(trunk),
+                       int(ch.spine[-1]), *pack_legs(self.legs))

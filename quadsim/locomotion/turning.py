@@ -8,17 +8,79 @@ commanded speed and yaw rate describe, the hind key point at the pelvis and
 the fore one a body length ahead on the same arc. Swing feet are planned
 about the key points' predicted positions and headings at touchdown, and
 the spine bends by the heading difference between the two key points.
+
+:func:`arc_step` and :func:`steer_rate` are the compiled forms the plan
+runs; :func:`arc_advance` and :func:`turn_rate_towards` their faces for
+arrays.
 """
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
-from quadsim.frames import wrap_angle
+import numpy as np
+from numba import njit
+
+from quadsim.locomotion.rowmath import inner
+
+TWO_PI = 2.0 * math.pi
+
+
+#: Proportional gain (1/s) of steering towards a commanded heading.
+HEADING_GAIN = 2.0
+#: Below this turn angle (rad) an arc is taken as its straight-line limit.
+STRAIGHT_TURN = 1e-6
+
+
+@inner
+def arc_step(heading, speed, yaw_rate, tau):
+    """Move ``tau`` s along the arc of ``speed`` (m/s) and ``yaw_rate``
+    (rad/s) from ``heading`` (rad): the ground displacement ``(dx, dz)`` (m)
+    and the end heading (rad). The exact arc; its straight-line limit where
+    the turn is below :data:`STRAIGHT_TURN`."""
+    dh = yaw_rate * tau
+    if abs(dh) < STRAIGHT_TURN:
+        dx = speed * tau * math.sin(heading + 0.5 * dh)
+        dz = speed * tau * math.cos(heading + 0.5 * dh)
+    else:
+        k = speed / yaw_rate
+        dx = k * (math.cos(heading) - math.cos(heading + dh))
+        dz = k * (math.sin(heading + dh) - math.sin(heading))
+    return dx, dz, heading + dh
+
+
+@inner
+def steer_rate(heading, target, max_rate, gain):
+    """Yaw rate (rad/s) steering ``heading`` towards ``target`` (rad):
+    ``gain`` (1/s) times the wrapped error, within ``max_rate``."""
+    err = (target - heading + math.pi) % TWO_PI - math.pi
+    return min(max(gain * err, -max_rate), max_rate)
+
+
+@njit(cache=True)
+def _arc_rows(p, h, v, w, tau, out, out_h):
+    for n in range(p.shape[0]):
+        dx, dz, he = arc_step(h[n], v[n], w[n], tau[n])
+        out_h[n] = he
+        out[n, 0] = p[n, 0] + dx
+        out[n, 1] = p[n, 1] + 0.0
+        out[n, 2] = p[n, 2] + dz
+
+
+@njit(cache=True)
+def _steer_rows(h, t, m, gain, out):
+    for n in range(h.shape[0]):
+        out[n] = steer_rate(h[n], t[n], m[n], gain)
+
+
+def _rows(batch, x, tail=()):
+    return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), batch + tail)
+                                ).reshape((-1,) + tail)
 
 
 def arc_advance(position, heading, speed, yaw_rate, tau):
-    """Position and heading after moving ``tau`` seconds along an arc.
+    """Position and heading after moving ``tau`` seconds along an arc
+    (:func:`arc_step`, the feet stage's own, for arrays).
 
     Parameters
     ----------
@@ -38,32 +100,27 @@ def arc_advance(position, heading, speed, yaw_rate, tau):
     position : ndarray, shape (..., 3)
     heading : ndarray, shape (...)
     """
-    p = np.asarray(position, dtype=float)
-    h = np.asarray(heading, dtype=float)
-    v = np.asarray(speed, dtype=float)
-    w = np.asarray(yaw_rate, dtype=float)
-    tau = np.asarray(tau, dtype=float)
-    dh = w * tau
-    straight = np.abs(dh) < 1e-6
-    safe_w = np.where(straight, 1.0, w)
-    # exact arc; its straight-line limit where the turn is negligible
-    dx = np.where(straight, v * tau * np.sin(h + 0.5 * dh),
-                  (v / safe_w) * (np.cos(h) - np.cos(h + dh)))
-    dz = np.where(straight, v * tau * np.cos(h + 0.5 * dh),
-                  (v / safe_w) * (np.sin(h + dh) - np.sin(h)))
-    out = p.copy() if p.ndim else p
-    out = out + np.stack([dx, np.zeros_like(dx), dz], axis=-1)
-    return out, h + dh
+    batch = np.broadcast_shapes(np.shape(position)[:-1], np.shape(heading), np.shape(speed),
+                                np.shape(yaw_rate), np.shape(tau))
+    m = math.prod(batch)
+    out, out_h = np.empty((m, 3)), np.empty(m)
+    _arc_rows(_rows(batch, position, (3,)), _rows(batch, heading), _rows(batch, speed),
+              _rows(batch, yaw_rate), _rows(batch, tau), out, out_h)
+    return out.reshape(batch + (3,)), out_h.reshape(batch)
 
 
-def turn_rate_towards(heading, target, max_rate, gain=2.0):
-    """Yaw rate (rad/s) that steers ``heading`` towards ``target``.
+def turn_rate_towards(heading, target, max_rate, gain=HEADING_GAIN):
+    """Yaw rate (rad/s) that steers ``heading`` towards ``target``
+    (:func:`steer_rate`, the plan's own, for arrays).
 
     Proportional to the wrapped heading error with ``gain`` (1/s), capped at
     ``max_rate``.
     """
-    err = wrap_angle(np.asarray(target) - np.asarray(heading))
-    return np.clip(gain * err, -max_rate, max_rate)
+    batch = np.broadcast_shapes(np.shape(heading), np.shape(target), np.shape(max_rate))
+    out = np.empty(math.prod(batch))
+    _steer_rows(_rows(batch, heading), _rows(batch, target), _rows(batch, max_rate),
+                float(gain), out)
+    return out.reshape(batch)[()] if not batch else out.reshape(batch)
 
 
 def rotate_y(vectors, angle):

@@ -148,15 +148,12 @@ class ProceduralLive:
 
     def __init__(self, character, *, dt: float, seed: int = 0, gait: str | None = None):
         from quadsim.locomotion import ProceduralController
-        from quadsim.locomotion.gaits import gait_table
 
         self.character = character
         self.controller = ProceduralController(character, dt=dt, seed=seed, gait=gait)
-        self.table = gait_table(character)
-        self.gait_order = list(character.locomotion.get("gaits", list(self.table)))[:9]
-        self.auto_gaits = list(self.controller.auto)
+        self.gait_order = list(self.controller.gait_order)
+        self.auto_gaits = list(self.controller.auto_gaits)
         self.max_speed = float(self.controller.max_speed)
-        self._label = str(self.controller.scheduler.label)
 
     ground = None
 
@@ -170,28 +167,24 @@ class ProceduralLive:
 
     @property
     def gait(self) -> str:
-        return self._label
+        return self.controller.gait
 
     def preferred_speed(self, gait: str) -> float:
         """The gait table's preferred speed (m/s)."""
-        return float(self.table[gait].preferred_speed)
+        return self.controller.preferred_speed(gait)
 
     def gait_speed_cap(self, gait: str) -> float:
         """The controller's cap for a requested gait (15 % above its range), at most
         :attr:`max_speed`."""
-        return min(self.max_speed, float(self.controller.gait_speed_cap(gait)))
+        return self.controller.gait_speed_cap(gait)
 
     def step(self, command, dt: float) -> LiveFrame:
-        """One controller step, posed (the plan's pose channels kept as extras)."""
-        from quadsim.locomotion.controller import stack_plans
-
-        plan = self.controller.step(command, dt, pose=False)
-        local, root, _ = self.controller.pose(stack_plans([plan]))
-        self._label = str(plan["gait"])
-        extras = {k: np.asarray(plan[k], dtype=float)
+        """One controller step, posed (the frame's channels kept as extras)."""
+        f = self.controller.step(command, dt)
+        extras = {k: np.array(f.extras[k], dtype=float)
                   for k in ("phase", "spine", "duty", "speed", "heading")}
-        return LiveFrame(self.character.skeleton, local[0], root[0], float(plan["heading"]),
-                         self._label, np.asarray(plan["contacts"], dtype=bool), extras)
+        return LiveFrame(self.character.skeleton, np.array(f.local_rotations), np.array(f.root),
+                         f.heading, f.gait, np.array(f.contacts), extras)
 
 
 class DataLive:

@@ -1,0 +1,133 @@
+"""The body stage of the plan, compiled: spine, height, pitch, sway and tail.
+
+The spine bends by the concave/convex machine in the bounding gaits and
+compresses and stretches with its oscillator in the others
+(:mod:`quadsim.locomotion.spine`); the body bobs with the support and each
+girdle drops as far as its planted feet need to stay in reach (vaulting
+over them), which pitches the body; each girdle sways after its feet and
+the tail lags behind. Units are SI (m, s, rad); legs LF, RF, LH, RH.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from quadsim.locomotion.rowmath import ahead_of_mid, inner, interp_leg
+from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
+
+#: The bounding spine turns from one target to the other in 1 / (this many
+#: strides): its rate is this times the target difference times the stride
+#: frequency.
+SPINE_RATE_PER_STRIDE = 5.0
+#: Vertical bob of the body: this fraction of the gait's drop (of the hip
+#: height), high with two feet down and low with none.
+BOB_FRACTION = 0.6
+#: Girdle sway: this fraction of the angle of the line between the left and
+#: right feet.
+SWAY_GAIN = 0.1
+#: Tail pitch: this fraction of the spine's pitch, less this much per m/s
+#: of speed (rad), spread over the tail joints.
+TAIL_PITCH_FROM_SPINE = 0.6
+TAIL_PITCH_PER_SPEED = 0.02
+#: Tail yaw: this fraction of the spine's bend and of the hind girdle's sway,
+#: against them.
+TAIL_YAW_FROM_BEND = -0.8
+TAIL_YAW_FROM_SWAY = -0.5
+#: Narrowest stance width (m) the sway is measured over.
+MIN_STANCE_WIDTH = 1e-3
+#: Least duty factor the support measure divides by.
+MIN_DUTY = 1e-3
+
+
+@inner
+def body_rows(body, state, scratch, reach, sc, out):
+    """Stage 6 of the step for N rows: the spine's concave/convex machine
+    and slow flexion, the bob and vaulting drops, body height and pitch,
+    girdle sway and the lagging tail.
+
+    Parameters
+    ----------
+    body : BodyConstants
+    state : PlanState
+        Reads the contacts, the phases, the blended gait parameters and the
+        key points' source (``motion``); updates ``body`` in place.
+    scratch : StepScratch
+        This step's key points ``keys`` and ``key_heading``.
+    reach : ReachTables
+        ``drops``, ``sweep_cols`` and ``foot_offset``.
+    sc : StepConstants
+    out : PlanOutputs
+        Reads ``feet`` and the stride fractions ``phase``; receives
+        ``pitch`` (N,) and ``sway`` (N, 2) (hind, fore) (rad).
+    """
+    stance, u = state.feet.stance, out.phase
+    params, bs = state.schedule.params, state.body
+    keys, key_heading = scratch.keys, scratch.key_heading
+    feet, sway = out.feet, out.sway
+    dt = sc.dt
+    need = np.empty(4)
+    lx = np.empty(4)
+    lz = np.empty(4)
+    for n in range(stance.shape[0]):
+        flexed, extended = body.spine_flexed[n], body.spine_extended[n]
+        # the concave/convex machine: flexed while no hind foot is down
+        tgt = target_of(state_of(stance[n, 0] or stance[n, 1], stance[n, 2] or stance[n, 3]),
+                        flexed, extended)
+        rate = SPINE_RATE_PER_STRIDE * abs(flexed - extended) * state.cpg.freq[n]
+        bs.spine_angle[n] = rate_step(bs.spine_angle[n], tgt, rate, dt)
+        slow = flex_of(state.cpg.theta_s[n], body.spine_slow_scale[n] * params.spine_amplitude[n])
+        bound = params.bound[n]
+        raw = bound * bs.spine_angle[n] + (1.0 - bound) * slow
+        bs.spine_smooth[n] += (raw - bs.spine_smooth[n]) * sc.a_smooth
+        sdut = max(params.duty[n], MIN_DUTY)
+        support = 0.0
+        for i in range(4):
+            if stance[n, i]:
+                support += math.sin(math.pi * min(max(u[n, i] / sdut, 0.0), 1.0))
+        drop = params.drop[n]
+        bob = BOB_FRACTION * drop * body.hip_height[n] * (0.5 - support / 4)
+        # vaulting: each girdle drops as far as its planted feet need (the
+        # girdles' headings' cosines and sines taken once)
+        c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
+        c0, s0 = math.cos(key_heading[n, 0]), math.sin(key_heading[n, 0])
+        for i in range(4):
+            g = 1 if i < 2 else 0
+            c, sn = (c1, s1) if g else (c0, s0)
+            along = ahead_of_mid(keys, reach.foot_offset, feet, n, i, c0, s0, c1, s1)
+            need[i] = 0.0
+            if stance[n, i]:  # np.interp(x, sweep_cols[n, i], drops)
+                need[i] = interp_leg(abs(along) / sc.reach_margin, reach.drops,
+                                     reach.sweep_cols, n, i)
+            # the foot in its girdle's frame, for the sway: turned by -heading,
+            # whose cosine is c and sine -sn
+            fx, fz = feet[n, i, 0] - keys[n, g, 0], feet[n, i, 2] - keys[n, g, 2]
+            lx[i] = c * fx - sn * fz
+            lz[i] = sn * fx + c * fz
+        dh = max(drop, max(need[2], need[3]))
+        df = max(drop, max(need[0], need[1]))
+        drops_now = bs.drops_now
+        drops_now[n, 0] += (dh - drops_now[n, 0]) * sc.a_drop
+        drops_now[n, 1] += (df - drops_now[n, 1]) * sc.a_drop
+        pelvis = body.pelvis_height[n]
+        target_h = pelvis * (1.0 - drops_now[n, 0]) + bob
+        bs.height[n] += (target_h - bs.height[n]) * sc.a_drop
+        out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis,
+                                  body.body_length[n])
+        # girdle sway from where the left and right feet are
+        for g, (left, right) in enumerate(((2, 3), (0, 1))):  # hind, fore
+            width = max(abs(lx[left] - lx[right]), MIN_STANCE_WIDTH)
+            sway[n, g] = min(max(SWAY_GAIN * math.atan2(lz[left] - lz[right], width),
+                                 -sc.max_sway), sc.max_sway)
+        # tail: each joint follows the one before with a lag
+        nt = body.n_tail[n]
+        p0 = (TAIL_PITCH_FROM_SPINE * bs.spine_smooth[n]
+              - TAIL_PITCH_PER_SPEED * state.motion.speed[n]) / nt
+        p1 = (TAIL_YAW_FROM_BEND * state.motion.bend[n] + TAIL_YAW_FROM_SWAY * sway[n, 0]) / nt
+        tail = bs.tail
+        for k in range(tail.shape[1]):
+            t0, t1 = tail[n, k, 0], tail[n, k, 1]
+            tail[n, k, 0] = t0 + sc.a_tail * (p0 - t0)
+            tail[n, k, 1] = t1 + sc.a_tail * (p1 - t1)
+            p0, p1 = t0, t1

@@ -1,0 +1,118 @@
+"""The feet stage of the plan, compiled: lift-off, touchdown and swing paths.
+
+A planted foot stays where it landed. It lifts off when its stride fraction
+passes the duty factor (or when it is about to fall out of reach), and
+swings along the Catmull-Rom path (:func:`~quadsim.locomotion.footpath.swing_into`)
+to a touchdown point planned about its girdle's key point where that will
+be at touchdown, on the arc the speed and turn rate describe
+(:func:`~quadsim.locomotion.turning.arc_step`), plus a lead into the next
+stance. Units are SI (m, s, rad); legs LF, RF, LH, RH.
+"""
+
+from __future__ import annotations
+
+import math
+
+from quadsim.locomotion.footpath import swing_into
+from quadsim.locomotion.rowmath import MIN_SWING, frac, inner
+from quadsim.locomotion.turning import arc_step
+
+TWO_PI = 2.0 * math.pi
+#: Swing clearance on a short step: at most this fraction of the step's
+#: length ...
+CLEARANCE_PER_STEP = 0.35
+#: ... plus this fraction of the gait's swing height (never more than the
+#: swing height itself).
+CLEARANCE_BASE = 0.3
+#: Touchdown lead: at most this fraction of the stance time ahead of the
+#: touchdown instant (the rest of the reach is the stride's).
+LEAD_STANCE_FRACTION = 0.5
+#: A foot lifts only once its phase has moved this far (rad) past its touchdown.
+MIN_STANCE_PHASE = 1e-9
+#: The touchdown lead's reach term divides by at least this speed (m/s).
+MIN_LEAD_SPEED = 1e-6
+#: A swing has landed once its progress is within this of 1.
+TOUCHDOWN_EPS = 1e-12
+
+
+@inner
+def feet_rows(state, scratch, reach, sc, out):
+    """Stage 5 of the step for N rows: lift-off and touchdown, swing
+    progress, touchdown targets on the turning arc and swing paths.
+
+    Parameters
+    ----------
+    state : PlanState
+        Reads the phases ``cpg.theta`` (after this step's CPG update),
+        ``cpg.freq``, the speed and turn rate, the duty factor and swing
+        height of ``schedule.params``; updates ``feet`` in place.
+    scratch : StepScratch
+        ``theta_prev``, the key points, ``final_duty``, ``trailing`` and
+        ``half_min`` of this step.
+    reach : ReachTables
+        ``foot_offset``.
+    sc : StepConstants
+        ``reach_margin``.
+    out : PlanOutputs
+        Receives ``feet`` (N, 4, 3) foot positions (m) and ``fold`` (N, 4).
+    """
+    theta, freq = state.cpg.theta, state.cpg.freq
+    v, yaw_rate = state.motion.speed, state.motion.yaw_rate
+    ft = state.feet
+    stance, swing_s, theta_lo, theta_td = ft.stance, ft.swing_s, ft.theta_lo, ft.theta_td
+    planted, liftoff = ft.planted, ft.liftoff
+    keys, key_heading = scratch.keys, scratch.key_heading
+    foot_offset = reach.foot_offset
+    feet, fold = out.feet, out.fold
+    for n in range(theta.shape[0]):
+        dn = state.schedule.params.duty[n]
+        stance_time = max(dn, min(scratch.final_duty[n], 1.0 - MIN_SWING)) / freq[n]
+        omega = TWO_PI * freq[n]
+        for i in range(4):
+            th = theta[n, i]
+            if stance[n, i]:
+                u = frac(th / TWO_PI)
+                due = dn <= u <= 1.0 - MIN_SWING
+                if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > MIN_STANCE_PHASE:
+                    stance[n, i] = False
+                    for c in range(3):
+                        liftoff[n, i, c] = planted[n, i, c]
+                    cross = TWO_PI * (math.floor(th / TWO_PI) + dn)
+                    theta_lo[n, i] = cross if due and cross > scratch.theta_prev[n, i] else th
+                    td = TWO_PI * (math.floor(th / TWO_PI) + 1.0)
+                    if td - th < TWO_PI * MIN_SWING:
+                        td += TWO_PI
+                    theta_td[n, i] = td
+                    swing_s[n, i] = 0.0
+            if not stance[n, i]:
+                sp = min(max((th - theta_lo[n, i]) / (theta_td[n, i] - theta_lo[n, i]), 0.0),
+                         1.0)
+                swing_s[n, i] = max(swing_s[n, i], sp)
+        lead = min(LEAD_STANCE_FRACTION * stance_time,
+                   sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
+        for i in range(4):
+            fold[n, i] = 0.0
+            if stance[n, i]:
+                for c in range(3):
+                    feet[n, i, c] = planted[n, i, c]
+                continue
+            g = 1 if i < 2 else 0  # the fore legs follow the fore key point
+            tau = max(theta_td[n, i] - theta[n, i], 0.0) / omega + lead
+            dx, dz, kh = arc_step(key_heading[n, g], v[n], yaw_rate[n], tau)
+            cs, sn = math.cos(kh), math.sin(kh)
+            ox, oz = foot_offset[n, i, 0], foot_offset[n, i, 2]
+            tx = (keys[n, g, 0] + dx) + (cs * ox + sn * oz)
+            tz = (keys[n, g, 2] + dz) + (-sn * ox + cs * oz)
+            ax, ay, az = liftoff[n, i, 0], liftoff[n, i, 1], liftoff[n, i, 2]
+            ddx, ddy, ddz = tx - ax, 0.0 - ay, tz - az
+            step_len = math.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)
+            hs = state.schedule.params.swing_height[n]
+            height = min(hs, CLEARANCE_PER_STEP * step_len + CLEARANCE_BASE * hs)
+            s = swing_s[n, i]
+            if s >= 1.0 - TOUCHDOWN_EPS:  # touchdown
+                planted[n, i, 0], planted[n, i, 1], planted[n, i, 2] = tx, 0.0, tz
+                feet[n, i, 0], feet[n, i, 1], feet[n, i, 2] = tx, 0.0, tz
+                stance[n, i] = True
+                continue
+            swing_into((ax, ay, az), (tx, 0.0, tz), height, s, feet, n, i)
+            fold[n, i] = math.sin(math.pi * s) ** 2

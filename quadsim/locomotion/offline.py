@@ -1,0 +1,129 @@
+"""The fast offline path: a script of commands to a :class:`~quadsim.skeleton.motion.Motion`.
+
+:func:`simulate` steps a :class:`~quadsim.locomotion.controller.ProceduralController`
+once per frame, plan only, copying each frame's plan into the clip's arrays,
+then poses every frame in one compiled pass: the same motion as stepping
+the controller posed frame by frame (tests hold the two together).
+"""
+
+from __future__ import annotations
+
+import math
+from itertools import chain
+
+import numpy as np
+
+from quadsim.commands import Command, Script
+from quadsim.kinematics.rotations import quaternions_from_matrices
+from quadsim.locomotion.controller import ControllerSettings, ProceduralController
+from quadsim.locomotion.cpg import TWO_PI
+from quadsim.locomotion.plan_kernels import LOOK_PER_BEND, TOE_PER_FOLD
+from quadsim.skeleton.character import Character
+from quadsim.skeleton.motion import Motion
+
+_ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
+               "toe", "tail", "look", "contacts", "phase", "speed", "duty", "spine",
+               "heading_rate", "amplitude")
+
+
+def stack_plans(plans: list[dict]) -> dict[str, np.ndarray]:
+    """Stack per-frame plans (:meth:`ProceduralController.plan_step
+    <quadsim.locomotion.controller.ProceduralController.plan_step>`) into
+    arrays with a leading frame axis."""
+    T = len(plans)
+    out = {}
+    for k in _ARRAY_KEYS:
+        first = plans[0][k] if T else 0.0
+        shape = np.shape(first)
+        dtype = bool if k == "contacts" else float
+        if isinstance(first, np.ndarray) or not shape:
+            out[k] = np.array([pl[k] for pl in plans], dtype=dtype).reshape((T,) + shape)
+            continue
+        # nested lists: flatten level by level and read them in one pass
+        flat = (pl[k] for pl in plans)
+        for _ in shape:
+            flat = chain.from_iterable(flat)
+        out[k] = np.fromiter(flat, dtype=dtype, count=T * math.prod(shape)).reshape(
+            (T,) + shape)
+    n_tail = len(plans[0]["tail"]) if plans else 0
+    out["tail"] = out["tail"].reshape(T, n_tail, 2)
+    out["gait"] = np.array([pl["gait"] for pl in plans], dtype=object)
+    return out
+
+
+def simulate(character: Character, script: Script | Command, duration: float, fps: float,
+             *, seed: int = 0, settings: ControllerSettings | None = None) -> Motion:
+    """Run a scripted sequence of commands and return the motion.
+
+    Parameters
+    ----------
+    character : Character
+    script : Script or Command
+        The commands over time (a single command is held throughout).
+    duration : float
+        Seconds to simulate (> 0).
+    fps : float
+        Frames per second; the controller steps once per frame.
+    seed : int
+    settings : ControllerSettings, optional
+
+    Returns
+    -------
+    Motion
+        ``int(round(duration * fps))`` frames, frame ``k`` at ``t = k / fps``
+        (the state after ``k`` steps), with planned contacts, gait labels
+        and, in ``extras``, the CPG stride fractions ``phase`` (T, 4), the
+        spine angle ``spine`` (T,), the duty factor ``duty`` (T,), the speed
+        ``speed`` (T,), the heading ``heading`` (T,), the IK error
+        ``ik_error`` (T, 4) and the oscillator amplitudes ``cpg_amplitude`` (T, 5).
+    """
+    if isinstance(script, Command):
+        script = Script.constant(script)
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"duration must be a positive number of seconds, got {duration!r}")
+    if not (math.isfinite(fps) and fps > 0):
+        raise ValueError(f"fps must be a positive number, got {fps!r}")
+    n = round(duration * fps)
+    dt = 1.0 / fps
+    first = script.commands[0]
+    ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
+    # frame 0 is the starting state; frame k follows k steps of dt
+    # (the compiled plan's row copied into the clip's arrays: no per-frame dicts)
+    st = ctl.state
+    mo, bs, cpg = st.motion, st.body, st.cpg
+    n_tail = len(character.tail)
+    root, heading, pitch, sway = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty((n, 2))
+    bend, spine, feet, fold = np.empty(n), np.empty(n), np.empty((n, 4, 3)), np.empty((n, 4))
+    tail, contacts, theta = np.empty((n, n_tail, 2)), np.empty((n, 4), dtype=bool), \
+        np.empty((n, 4))
+    speed, duty, rate, amp = np.empty(n), np.empty(n), np.empty(n), np.empty((n, 5))
+    gaits = []
+    for k in range(n):
+        if k:
+            out = ctl._plan(script.command_at((k - 1) * dt), dt)
+        else:
+            out = ctl._plan(first, 0.0)
+        root[k, 0], root[k, 1], root[k, 2] = mo.root_xz[0, 0], bs.height[0], mo.root_xz[0, 2]
+        heading[k], pitch[k], sway[k] = mo.heading[0], out.pitch[0], out.sway[0]
+        bend[k], spine[k], feet[k], fold[k] = mo.bend[0], bs.spine_smooth[0], out.feet[0], \
+            out.fold[0]
+        tail[k], contacts[k], theta[k] = bs.tail[0], st.feet.stance[0], cpg.theta[0]
+        speed[k], duty[k], rate[k] = mo.speed[0], st.schedule.params.duty[0], mo.yaw_rate[0]
+        amp[k, :4], amp[k, 4] = cpg.r[0], cpg.r_s[0]
+        gaits.append(ctl.gait)
+    plan = {"root": root, "heading": heading, "pitch": pitch, "sway": sway, "bend_yaw": bend,
+            "bend_pitch": spine, "feet": feet, "fold": fold, "toe": TOE_PER_FOLD * fold, "tail": tail,
+            "look": LOOK_PER_BEND * bend, "contacts": contacts, "phase": np.mod(theta / TWO_PI, 1.0),
+            "speed": speed, "duty": duty, "spine": spine, "heading_rate": rate,
+            "amplitude": amp, "gait": np.array(gaits, dtype=object)}
+    local, root, err = ctl.pose(plan)
+    return Motion(
+        character.skeleton, fps, root, quaternions_from_matrices(local),
+        contacts=plan["contacts"], gaits=plan["gait"], foot_joints=character.foot_joints,
+        extras={"phase": plan["phase"], "spine": plan["spine"], "duty": plan["duty"],
+                "speed": plan["speed"], "ik_error": err, "heading": plan["heading"],
+                "cpg_amplitude": plan["amplitude"]},
+    )
+
+
+__all__ = ["simulate", "stack_plans"]

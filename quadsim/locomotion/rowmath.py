@@ -1,0 +1,159 @@
+"""Small compiled helpers the stage kernels of the plan share.
+
+Each works on one row ``n`` of whole arrays rather than on a view of the row
+(``keys[n]``): each view made in the loops costs an atomic reference count,
+which the threads of a batch's blocks of rows
+(:func:`~quadsim.locomotion.blocks.run_blocks`) contend for. Units are SI
+(m, s, rad); legs LF, RF, LH, RH.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from quadsim.frames import GRAVITY
+
+#: Decorator of a compiled function only other compiled functions call:
+#: numba builds it no Python entry point (the entry of a function of large
+#: bundles costs more to compile than its body), so calling it from Python
+#: crashes. Each stage and helper of the plan and the posing is one.
+inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+#: Shortest swing, as a fraction of the stride, worth lifting a foot for.
+MIN_SWING = 0.12
+#: Exponent of the Froude number in Alexander's stride law
+#: ``lambda = h * coefficient * Fr^STRIDE_EXPONENT``.
+STRIDE_EXPONENT = 0.3
+
+
+@inner
+def frac(x):
+    """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
+    for every float (the difference is exact, or rounds the same sum as the
+    modulo's), without the library ``fmod`` call."""
+    return x - math.floor(x)
+
+
+@inner
+def interp_knot(x, xp):
+    """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
+    for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
+    (its search and special cases, for :func:`interp1` and its row forms)."""
+    n = xp.shape[0]
+    if x > xp[n - 1]:
+        return n - 1, 0
+    if x < xp[0]:
+        return 0, 0
+    if x == xp[n - 1]:
+        return n - 1, 0
+    j = 0
+    while j + 1 < n and xp[j + 1] <= x:
+        j += 1
+    if j >= n - 1:
+        return n - 1, 0
+    if xp[j] == x:
+        return j, 0
+    return j, 1
+
+
+@njit(cache=True)
+def interp1(x, xp, fp):
+    """``numpy.interp(x, xp, fp)`` for one ``x`` (the formula and order of
+    operations of ``numpy.interp``)."""
+    j, line = interp_knot(x, xp)
+    if not line:
+        return fp[j]
+    slope = (fp[j + 1] - fp[j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[j]
+
+
+@inner
+def interp_row(x, xp, fp, n):
+    """:func:`interp1` of ``x`` on row ``n`` of ``fp`` (N, D)."""
+    j, line = interp_knot(x, xp)
+    if not line:
+        return fp[n, j]
+    slope = (fp[n, j + 1] - fp[n, j]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[n, j]
+
+
+@inner
+def interp_col(x, xp, fp, n, i):
+    """:func:`interp1` of ``x`` on ``fp[n, :, i]`` (``fp`` (N, D, C))."""
+    j, line = interp_knot(x, xp)
+    if not line:
+        return fp[n, j, i]
+    slope = (fp[n, j + 1, i] - fp[n, j, i]) / (xp[j + 1] - xp[j])
+    return slope * (x - xp[j]) + fp[n, j, i]
+
+
+@inner
+def interp_leg(x, xp, fp, n, i):
+    """:func:`interp1` of ``x`` on ``fp[n, i, :]`` (``fp`` (N, 4, D)), the
+    knots searched from the top as the body stage always did."""
+    D = xp.shape[0]
+    j = -1
+    for k in range(D):
+        if fp[n, i, k] <= x:
+            j += 1
+    if j < 0:
+        return xp[0]
+    if j >= D - 1:
+        return xp[D - 1]
+    x0 = fp[n, i, j]
+    return (xp[j + 1] - xp[j]) / (fp[n, i, j + 1] - x0) * (x - x0) + xp[j]
+
+
+@inner
+def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
+    """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
+    ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
+    fh = heading + 0.5 * bend
+    hx = root_xz[n, 0] + math.sin(heading) * hind_z
+    hy = root_xz[n, 1] + 0.0
+    hz = root_xz[n, 2] + math.cos(heading) * hind_z
+    keys[n, 0, 0], keys[n, 0, 1], keys[n, 0, 2] = hx, hy, hz
+    keys[n, 1, 0] = hx + math.sin(fh) * body_length
+    keys[n, 1, 1] = hy + 0.0
+    keys[n, 1, 2] = hz + math.cos(fh) * body_length
+    kh[n, 0] = heading
+    kh[n, 1] = heading + bend
+
+
+@inner
+def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
+    """How far (m) ``points[n, i]`` lies ahead of foot ``i``'s mid-stance point
+    (its girdle's key plus the foot's offset turned to the girdle's heading),
+    along the girdle's forward vector; ``c0, s0`` / ``c1, s1`` are the cosine
+    and sine of the hind / fore girdle's heading."""
+    g = 1 if i < 2 else 0
+    c, sn = (c1, s1) if g else (c0, s0)
+    ox, oy, oz = offset[n, i, 0], offset[n, i, 1], offset[n, i, 2]
+    mx = c * ox + sn * oz + keys[n, g, 0]
+    my = oy + keys[n, g, 1]
+    mz = -sn * ox + c * oz + keys[n, g, 2]
+    return (points[n, i, 0] - mx) * sn + (points[n, i, 1] - my) * 0.0 \
+        + (points[n, i, 2] - mz) * c
+
+
+@inner
+def room_row(keys, kh, offset, planted, base, room, n):
+    """Trailing room (m) of each foot of row ``n``: ``base`` plus how far its
+    planted point is ahead of its mid-stance point along the girdle's
+    forward vector (each girdle's cosine and sine taken once)."""
+    c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
+    c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
+    for i in range(4):
+        room[i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
+
+
+@inner
+def stride_length(minv, coef, speed, h):
+    """Natural stride length (m) at ``speed`` by Alexander's law, for the
+    parameters' least speed ``minv`` and stride coefficient ``coef``, hip
+    height ``h`` (m); below ``minv`` the stride shortens with the speed."""
+    vc = max(max(speed, minv), 1e-3)
+    lam = h * coef * (vc * vc / (GRAVITY * h)) ** STRIDE_EXPONENT
+    return lam * speed / vc if speed < vc else lam

@@ -1,0 +1,216 @@
+"""Pure-numpy oracles: the engine's stages written a second way, for the tests.
+
+The engine runs compiled kernels only; these independent array forms are
+what the tests hold the kernels to (to rounding, about 1e-12).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from quadsim.frames import UP
+from quadsim.kinematics.rotations import matrices_about_axis
+from quadsim.locomotion.cpg import TWO_PI, CPGParams
+from quadsim.locomotion.footpath import SWING_KNOTS
+
+#: the leg pairs (i, j), i < j, of the coupling terms
+_PAIR_I = np.array([0, 0, 0, 1, 1, 2])
+_PAIR_J = np.array([1, 2, 3, 2, 3, 3])
+
+
+def amplitude_after(r, t, p: CPGParams):
+    """Exact solution of ``dr/dt = a (mu - r^2) r`` after ``t`` seconds."""
+    r = np.asarray(r, dtype=float)
+    r2 = r * r
+    safe = np.where(r2 > 0, r2, 1.0)
+    decay = np.exp(-2.0 * p.gain * p.mu * t)
+    out = np.sqrt(p.mu / (1.0 + (p.mu / safe - 1.0) * decay))
+    return np.where(r2 > 0, out, 0.0)
+
+
+def _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, p: CPGParams):
+    sn = np.sin(theta[..., _PAIR_J] - theta[..., _PAIR_I] - phi)
+    s01, s02, s03, s12, s13, s23 = np.moveaxis(sn, -1, 0)
+    r0, r1, r2, r3 = np.moveaxis(r, -1, 0)
+    w = p.coupling
+    dtheta = np.stack([omega + w * (r1 * s01 + r2 * s02 + r3 * s03),
+                       omega + w * (r0 * -s01 + r2 * s12 + r3 * s13),
+                       omega + w * (r0 * -s02 + r1 * -s12 + r3 * s23),
+                       omega + w * (r0 * -s03 + r1 * -s13 + r2 * -s23)], axis=-1)
+    dtheta_s = omega + p.spine_coupling * (r0 * np.sin(theta[..., 0] + psi_s[..., 0] - theta_s)
+                                           + r2 * np.sin(theta[..., 2] + psi_s[..., 1] - theta_s))
+    return dtheta, dtheta_s
+
+
+def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams | None = None):
+    """The polar Hopf network's step: exact amplitudes, RK4 phases."""
+    params = params or CPGParams()
+    omega = np.asarray(omega, dtype=float)
+    psi = np.asarray(psi, dtype=float)
+    h = dt / params.substeps
+    theta = np.asarray(theta, dtype=float)
+    theta_s = np.asarray(theta_s, dtype=float)
+    phi = TWO_PI * (psi[..., _PAIR_I] - psi[..., _PAIR_J])
+    psi_s = TWO_PI * psi[..., [0, 2]]
+    for _ in range(params.substeps):
+        r_mid = amplitude_after(r, 0.5 * h, params)
+        r_end = amplitude_after(r, h, params)
+        k1 = _phase_derivatives(theta, r, theta_s, omega, phi, psi_s, params)
+        k2 = _phase_derivatives(theta + 0.5 * h * k1[0], r_mid, theta_s + 0.5 * h * k1[1],
+                                omega, phi, psi_s, params)
+        k3 = _phase_derivatives(theta + 0.5 * h * k2[0], r_mid, theta_s + 0.5 * h * k2[1],
+                                omega, phi, psi_s, params)
+        k4 = _phase_derivatives(theta + h * k3[0], r_end, theta_s + h * k3[1],
+                                omega, phi, psi_s, params)
+        theta = theta + (h / 6.0) * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        theta_s = theta_s + (h / 6.0) * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        r = r_end
+        r_s = amplitude_after(r_s, h, params)
+    return theta, r, theta_s, r_s
+
+
+def swing_position(liftoff, touchdown, height, s):
+    """The swing path at progress ``s``: the Catmull-Rom segment of the knots."""
+    a = np.asarray(liftoff, dtype=float)
+    b = np.asarray(touchdown, dtype=float)
+    h = np.asarray(height, dtype=float)
+    s = np.asarray(s, dtype=float)
+    batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape)
+    s = np.broadcast_to(np.clip(s, 0.0, 1.0), batch)
+    nseg = len(SWING_KNOTS) - 3
+    x = s * nseg
+    i = np.minimum(np.floor(x).astype(int), nseg - 1)
+    knots = SWING_KNOTS[i[..., None] + np.arange(4)]
+    P = (a[..., None, :] + knots[..., :1] * (b - a)[..., None, :]
+         + knots[..., 1:] * (h[..., None, None] * UP))
+    p0, p1, p2, p3 = (P[..., k, :] for k in range(4))
+    t = (x - i)[..., None]
+    return 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t * t
+                  + (-p0 + 3 * p1 - 3 * p2 + p3) * t * t * t)
+
+
+def arc_advance(position, heading, speed, yaw_rate, tau):
+    """Position and heading after ``tau`` s on the arc, by the chord
+    ``v tau sinc(dh / 2)`` along the mean heading (no switch to a line)."""
+    p = np.asarray(position, dtype=float)
+    h = np.asarray(heading, dtype=float)
+    dh = np.asarray(yaw_rate, dtype=float) * tau
+    chord = np.asarray(speed, dtype=float) * tau * np.sinc(dh / (2 * np.pi))
+    mid = h + 0.5 * dh
+    return p + np.stack([chord * np.sin(mid), 0 * chord, chord * np.cos(mid)], -1), h + dh
+
+
+# ------------------------------------------------------------ leg IK
+def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
+    """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
+
+    The pair runs from Q (below the pre bones) to C (the target less the
+    post bones). Returns how far the foot falls short of the target (m).
+    """
+    L = geom.lengths
+    k0 = geom.pair
+    post = slice(k0 + 2, None)
+    cd = down_t - (L[..., post] * np.cos(phi[..., post])).sum(axis=-1)
+    cf = fwd_t - (L[..., post] * np.sin(phi[..., post])).sum(axis=-1)
+    l1, l2 = L[..., k0], L[..., k0 + 1]
+    vd, vf = cd - qd, cf - qf
+    r_true = np.hypot(vd, vf)
+    # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
+    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
+    gam = np.arctan2(vf, vd)
+    cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
+    phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
+    bd = qd + l1 * np.cos(phi[..., k0])
+    bf = qf + l1 * np.sin(phi[..., k0])
+    phi[..., k0 + 1] = np.arctan2(qf + r * np.sin(gam) - bf, qd + r * np.cos(gam) - bd)
+    return np.abs(r_true - r)
+
+
+def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
+              target: np.ndarray, fold: np.ndarray | float = 0.0,
+              toe_pitch: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations that put a leg's foot joint on a target.
+
+    Parameters
+    ----------
+    geom : LegGeometry
+        One leg, or several stacked by :func:`stack_leg_geometries` (then
+        every batch shape below ends with their number B).
+    parent_rot : array-like, shape (..., 3, 3)
+        World rotation of the top joint's parent.
+    parent_pos : array-like, shape (..., 3)
+        World position of the top joint's parent (m).
+    target : array-like, shape (..., 3)
+        World position wanted for the foot joint (m).
+    fold : array-like, shape (...)
+        Swing fold of the post bones, 0 (planted) to 1 (fully folded).
+    toe_pitch : array-like, shape (...)
+        Rotation of the toes/hoof from level (rad), positive tips them down.
+
+    Returns
+    -------
+    local : ndarray, shape (..., n + 1, 3, 3)
+        Local rotation of each chain joint, top to foot.
+    reached : ndarray, shape (...)
+        Distance from the target to the foot actually reached (m); 0 for a
+        reachable target.
+    """
+    Rp = np.asarray(parent_rot, dtype=float)
+    Pp = np.asarray(parent_pos, dtype=float)
+    tgt = np.asarray(target, dtype=float)
+    batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1],
+                                np.shape(fold), np.shape(toe_pitch))
+    RpT = np.swapaxes(Rp, -1, -2)
+    top = Pp + np.einsum("...ij,...j->...i", Rp, geom.top_offset)
+    d = np.einsum("...ij,...j->...i", RpT, tgt - top)
+    d = np.broadcast_to(d, batch + (3,))
+    # abduction about the parent's forward axis brings the target into the plane
+    # (a target above the top joint swings the plane past horizontal: the
+    # leg then points at it, and `reached` reports the true miss)
+    a = np.arctan2(d[..., 0], -d[..., 1])
+    ca, sa = np.cos(a), np.sin(a)
+    down_t = -(d[..., 1] * ca - d[..., 0] * sa)  # -(y') with y' = -x sin a + y cos a
+    fwd_t = d[..., 2]
+    # world down in the leg plane
+    g = np.broadcast_to(RpT[..., 1, :] * -1.0, batch + (3,))  # R^T (0,-1,0)
+    gy = -g[..., 0] * sa + g[..., 1] * ca
+    phi_down = np.arctan2(g[..., 2], -gy)
+
+    L = geom.lengths
+    A0 = geom.rest_angles
+    n = geom.n_bones
+    k0 = geom.pair
+    phi = np.empty(batch + (n,))
+    # pre bones swing with the leg
+    alpha = np.arctan2(fwd_t, down_t)
+    qd = np.zeros(batch)
+    qf = np.zeros(batch)
+    for k in range(k0):
+        phi[..., k] = A0[..., k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
+        qd = qd + L[..., k] * np.cos(phi[..., k])
+        qf = qf + L[..., k] * np.sin(phi[..., k])
+    # post bones: rest angle to the world vertical, turned with the leg, plus
+    # the swing fold
+    fold = np.asarray(fold, dtype=float)
+    for k in range(k0 + 2, n):
+        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
+                       + geom.fold[..., k] * fold)
+    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+    # keep the post joints inside their limits relative to the bone above,
+    # then solve the pair again for the moved post bones (twice: the second
+    # pass corrects the small change the re-solved pair makes)
+    for _ in range(2 if geom.limited else 0):
+        for k in range(k0 + 2, n):
+            rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
+            rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
+            phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
+        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+
+    theta = A0 - phi  # cumulative rotation about +X of each chain joint
+    toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)
+    theta_foot = geom.toe_angle - toe_phi
+    cum = np.concatenate([theta, theta_foot[..., None]], axis=-1)
+    rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)
+    local = matrices_about_axis(0, rel)
+    local[..., 0, :, :] = matrices_about_axis(2, a) @ local[..., 0, :, :]
+    return local, reached
