@@ -28,8 +28,8 @@ from pathlib import Path
 from quadsim.commands import Command, Script
 from quadsim.errors import InputError, QuadsimClampWarning
 
-__all__ = ["DEFAULT_SECONDS", "FORMATS", "make_controller", "resolve", "run", "save",
-           "simulate"]
+__all__ = ["DEFAULT_SECONDS", "FORMATS", "MODES", "check_mode", "make_controller", "resolve",
+           "run", "save", "simulate"]
 
 #: Length (s) of a run made from a character without a config.
 DEFAULT_SECONDS = 10.0
@@ -47,7 +47,15 @@ def _character(ref):
     return ref if isinstance(ref, Character) else load_character(ref)
 
 
-def _check_mode(character, mode: str, label: str = "`mode`") -> None:
+def check_mode(character, mode: str, label: str = "`mode`") -> None:
+    """Raise unless ``character`` can run in ``mode``.
+
+    Raises
+    ------
+    InputError
+        For an unknown mode, or ``"data"`` with a character that has no clip
+        database; ``label`` names the field or flag in the message.
+    """
     if mode not in MODES:
         raise InputError(f"{label} = {mode!r} is not a known mode; allowed: "
                          f"{', '.join(map(repr, MODES))}")
@@ -56,8 +64,9 @@ def _check_mode(character, mode: str, label: str = "`mode`") -> None:
 
         if clip_folder(character) is None:
             raise InputError(f"{label} = 'data' needs a character with a clip database; "
-                             f"{character.id!r} has none; use the procedural mode for it, "
-                             "or a character with clips (the horse)")
+                             f"{character.id!r} has none; drop `--mode data` (or set mode = "
+                             "'procedural') to run it with the procedural controller, or pick "
+                             "a character with clips (`quadsim preview horse --mode data`)")
 
 
 def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60.0,
@@ -85,7 +94,7 @@ def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60
         ``step(command, dt) -> Frame`` (see :mod:`quadsim.controller`).
     """
     character = _character(character)
-    _check_mode(character, mode)
+    check_mode(character, mode)
     if mode == "data":
         from quadsim.horse.controller import HorseDataController
         from quadsim.io.clips import load_default_database
@@ -126,7 +135,7 @@ def simulate(character, commands: Script | Command, *, seconds: float,
         For a run shorter than one frame, a bad mode or character.
     """
     character = _character(character)
-    _check_mode(character, mode)
+    check_mode(character, mode)
     if isinstance(commands, Command):
         commands = Script.constant(commands)
     if not (seconds > 0 and fps > 0) or round(seconds * fps) < 1:
@@ -138,7 +147,7 @@ def simulate(character, commands: Script | Command, *, seconds: float,
 
         return simulate_data(character, commands, seconds, fps,
                              database=load_default_database(character))
-    from quadsim.locomotion.controller import simulate as simulate_procedural
+    from quadsim.locomotion.offline import simulate as simulate_procedural
 
     return simulate_procedural(character, commands, seconds, fps, seed=seed)
 
@@ -195,12 +204,12 @@ def resolve(source, *, mode: str | None = None, seconds: float | None = None,
         ref = character.id if not isinstance(source, (str, os.PathLike)) or \
             not str(source).endswith(".toml") else str(Path(source).resolve())
         run_mode = mode or "procedural"
-        _check_mode(character, run_mode, "`--mode`")
+        check_mode(character, run_mode, "`--mode`")
         config = RunConfig(character=ref, duration=DEFAULT_SECONDS, fps=DEFAULT_FPS, seed=0,
                            mode=run_mode, units="m",
                            commands=Script.constant(constant_command(character)))
     if mode is not None and mode != config.mode:
-        _check_mode(config.load_character(), mode, "`--mode`")
+        check_mode(config.load_character(), mode, "`--mode`")
         config = replace(config, mode=mode)
     return with_overrides(config, duration=seconds, fps=fps, units=units, speed=speed,
                           gait=gait, turn_rate_deg_s=turn_rate_deg_s)

@@ -284,10 +284,10 @@ def cmd_preview(args) -> int:
     elif not Path(source).is_file():
         raise InputError(f"{source}: no such config file")
     if args.mode is not None:
-        from quadsim.viz.live import check_mode
+        from quadsim.api import check_mode
         from quadsim.viz.preview import resolve_source
 
-        check_mode(resolve_source(source)[0], args.mode)
+        check_mode(resolve_source(source)[0], args.mode, "`--mode`")
     if args.screenshot is None:
         from quadsim.viz.preview import display_available
 

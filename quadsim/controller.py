@@ -31,9 +31,12 @@ __all__ = ["Controller", "Frame"]
 
 
 def _frozen(a, dtype=float) -> np.ndarray:
-    """``a`` as a read-only array: taken as it is when it already has the dtype
-    (the frame then owns it; the caller must not write to it again), else copied."""
+    """``a`` as a read-only array. An array that owns its data and has the dtype is
+    taken as it is (the frame then owns it; the giver must not write to it again);
+    a view (of a controller's state, say) or anything else is copied."""
     out = np.asarray(a, dtype=dtype)
+    if out is a and a.base is not None:
+        out = a.copy()
     out.setflags(write=False)
     return out
 
@@ -72,9 +75,10 @@ class Frame:
         ``duty``; the data mode ``pitch`` (rad) and ``ground`` (4,) the
         ground height under each foot (m).
 
-    All arrays are read-only. Arrays given with the right dtype are taken, not
-    copied (a controller hands over arrays it made for this frame and does not
-    write to them again); anything else is converted.
+    All arrays are read-only. Arrays that own their data and have the right
+    dtype are taken, not copied (a controller hands over arrays it made for
+    this frame and does not write to them again); views and anything else are
+    copied.
     """
 
     skeleton: Skeleton

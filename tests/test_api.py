@@ -76,6 +76,22 @@ def test_a_character_without_clips_has_no_data_mode():
         quadsim.run("leopard", mode="data")
 
 
+@pytest.mark.parametrize("mode", ["procedural", "data"])
+def test_both_modes_step_behind_one_interface_as_the_offline_run_does(mode):
+    """make_controller gives a Controller whose frames are the offline motion's frames."""
+    ctl = quadsim.make_controller("horse", mode)
+    assert isinstance(ctl, quadsim.Controller) and ctl.mode == mode
+    cmd = quadsim.Command(speed=3.0)
+    frames = [ctl.step(cmd, 0.0 if k == 0 else 1 / 60) for k in range(90)]
+    assert all(isinstance(f, quadsim.Frame) for f in frames)
+    offline = quadsim.simulate("horse", cmd, seconds=1.5, fps=60, mode=mode)
+    P = offline.world_positions()
+    np.testing.assert_allclose(np.stack([f.positions for f in frames]), P, atol=1e-9)
+    assert [f.gait for f in frames] == [str(g) for g in offline.gaits]
+    assert not frames[-1].positions.flags.writeable
+    assert ctl.gait == frames[-1].gait and ctl.speed > 0
+
+
 def test_cli_runs_a_character_id_with_flags(tmp_path, capsys):
     out = tmp_path / "l.bvh"
     assert main(["run", "leopard", "--gait", "trot", "--seconds", "3", "--out", str(out)]) == 0

@@ -248,12 +248,11 @@ def horse_data(tmp_path):
 
 
 def test_data_mode_steps_the_clip_controller(horse_data):
+    import quadsim
     from quadsim.horse.controller import HorseDataController
-    from quadsim.viz.live import DataLive, LiveController
 
     p = horse_data
-    assert p.mode == "data" and isinstance(p.live, DataLive)
-    assert isinstance(p.live, LiveController)
+    assert p.mode == "data" and isinstance(p.live, quadsim.Controller)
     assert isinstance(p.controller, HorseDataController)
     assert p.gait_order == ["walk", "amble", "trot", "rack", "canter", "gallop"]
     # starts at a walk at the mean of the walk clips' speeds (1.30 and 1.71 m/s)
@@ -407,5 +406,6 @@ def test_cli_preview_data_mode_needs_clips(monkeypatch, capsys):
                  ["preview", "leopard", "--mode", "data", "--screenshot", "x.png"]):
         assert main(argv) == 2
         err = capsys.readouterr().err
-        assert "quadsim: error: `--mode data`" in err and "'leopard' has no clip database" in err
+        assert "quadsim: error: `--mode` = 'data' needs a character with a clip database" in err
+        assert "'leopard' has none" in err
         assert "drop `--mode data`" in err and "Traceback" not in err

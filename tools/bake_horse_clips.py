@@ -46,7 +46,7 @@ from quadsim.analysis.metrics import foot_contacts
 from quadsim.horse.database import cut_cycles, looped, sample_motion
 from quadsim.io.bvh import write_bvh
 from quadsim.commands import Command
-from quadsim.locomotion.controller import simulate
+from quadsim.locomotion.offline import simulate
 from quadsim.skeleton.character import characters_dir, load_character
 from quadsim.skeleton.motion import Motion
 

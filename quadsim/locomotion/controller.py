@@ -356,14 +356,4 @@ class ProceduralController:
         return self.poser.pose(plans)
 
 
-def __getattr__(name: str):
-    # simulate and stack_plans moved to quadsim.locomotion.offline (which
-    # imports this module); still importable from here
-    if name in ("simulate", "stack_plans"):
-        from quadsim.locomotion import offline
-
-        return getattr(offline, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-
-
 __all__ = ["ControllerSettings", "ProceduralController", "QuadsimClampWarning"]

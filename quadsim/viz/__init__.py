@@ -12,8 +12,6 @@ importing :mod:`quadsim.viz` is cheap.
   cameras) shared by the preview and the renderer.
 - :mod:`quadsim.viz.preview`: :class:`Preview`, steering a controller live
   in a window.
-- :mod:`quadsim.viz.live`: the one interface the preview steps both
-  controllers through (procedural, and the data-driven horse).
 - :mod:`quadsim.viz.render`: :func:`render_video` of a motion to ``.mp4`` or
   ``.gif`` off screen, streamed to the encoders of :mod:`quadsim.viz.video`,
   on the ground the motion walks on (:mod:`quadsim.viz.terrain`).

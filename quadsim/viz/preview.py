@@ -6,8 +6,9 @@ procedural one (:class:`~quadsim.locomotion.ProceduralController`, every
 character) or, in the data mode (a config's ``mode = "data"``, or
 ``Preview(..., mode="data")``), the data-driven horse
 (:class:`~quadsim.horse.controller.HorseDataController`); both are stepped
-through the same small interface (:mod:`quadsim.viz.live`), so the keys, the
-text and the recording work alike. In the data mode the ground grid follows
+through the one controller interface (:class:`quadsim.Controller`, made by
+:func:`quadsim.make_controller`), so the keys, the text and the recording
+work alike. In the data mode the ground grid follows
 the controller's sloped ground (a config's ``slope_deg`` commands). Its two
 working parts are plain methods, so they can be driven and tested without a
 window or an event loop:
@@ -52,7 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from quadsim.frames import wrap_angle
-from quadsim.viz.live import MODES, live_controller
+from quadsim.api import MODES, make_controller
 from quadsim.viz.scene import display_available
 
 __all__ = ["HELP", "LEAP_HELP", "Preview", "display_available", "resolve_source"]
@@ -135,10 +136,10 @@ class Preview:
     ----------
     mode : str
         ``"procedural"`` or ``"data"``.
-    live : LiveController
-        The controller's adapter (:mod:`quadsim.viz.live`).
-    controller : ProceduralController or HorseDataController
-        The controller itself.
+    live, controller : Controller
+        The controller (:class:`~quadsim.locomotion.ProceduralController` or
+        :class:`~quadsim.horse.controller.HorseDataController`), both names
+        for the same object.
     gaits : dict of str to Gait
         The character's (procedural) gait table.
     gait_order : list of str
@@ -183,10 +184,10 @@ class Preview:
         self.script = script
         self.dt = float(dt)
         first = script.commands[0] if script is not None else None
-        self.live = live_controller(
+        self.live = make_controller(
             character, self.mode, dt=self.dt, seed=cfg_seed if seed is None else int(seed),
             gait=first.gait if first is not None and self.mode == "procedural" else None)
-        self.controller = self.live.controller
+        self.controller = self.live
         self.gaits = gait_table(character)
         self.gait_order = list(self.live.gait_order)
         self.max_speed = float(self.live.max_speed)
@@ -461,7 +462,7 @@ class Preview:
     def _show(self, frames: list, record: bool) -> None:
         if record:
             self._rec.extend(frames)
-        G, P = frames[-1].world()
+        G, P = frames[-1].world_rotations, frames[-1].positions
         self._P = P
         self.scene.set_pose(G, P, frames[-1].heading, ground=self.live.ground)
 
