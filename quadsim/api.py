@@ -152,6 +152,12 @@ def simulate(character, commands: Script | Command, *, seconds: float,
     return simulate_procedural(character, commands, seconds, fps, seed=seed)
 
 
+def _shipped_ids() -> set[str]:
+    from quadsim.skeleton.character import list_characters
+
+    return set(list_characters())
+
+
 def _is_config(source) -> bool:
     """A TOML file holding a run configuration (a ``[[command]]`` script)."""
     p = Path(source)
@@ -201,8 +207,13 @@ def resolve(source, *, mode: str | None = None, seconds: float | None = None,
         config = load_config(source)
     else:
         character = _character(source)
-        ref = character.id if not isinstance(source, (str, os.PathLike)) or \
-            not str(source).endswith(".toml") else str(Path(source).resolve())
+        if isinstance(source, (str, os.PathLike)) and str(source).endswith(".toml"):
+            ref = str(Path(source).resolve())
+        elif getattr(character, "path", None) is not None and \
+                character.id not in _shipped_ids():
+            ref = str(character.path)
+        else:
+            ref = character.id
         run_mode = mode or "procedural"
         check_mode(character, run_mode, "`--mode`")
         config = RunConfig(character=ref, duration=DEFAULT_SECONDS, fps=DEFAULT_FPS, seed=0,
@@ -225,8 +236,11 @@ def run(source, **overrides):
     -------
     Motion
     """
+    from quadsim.skeleton.character import Character
+
     config = resolve(source, **overrides)
-    return simulate(config.load_character(), config.commands, seconds=config.duration,
+    character = source if isinstance(source, Character) else config.load_character()
+    return simulate(character, config.commands, seconds=config.duration,
                     fps=config.fps, mode=config.mode, seed=config.seed)
 
 

@@ -107,3 +107,17 @@ def test_cli_runs_a_character_id_with_flags(tmp_path, capsys):
 def test_cli_version(capsys):
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"quadsim {quadsim.__version__}"
+
+
+def test_a_users_character_file_runs_by_path_and_as_an_object(tmp_path):
+    from quadsim.skeleton.character import characters_dir
+
+    text = (characters_dir() / "dog_cub.toml").read_text(encoding="utf-8")
+    mine = tmp_path / "my_dog.toml"
+    mine.write_text(text.replace('id = "dog_cub"', 'id = "my_dog"'), encoding="utf-8")
+    by_path = quadsim.run(mine, gait="trot", seconds=1)
+    ch = quadsim.load_character(mine)
+    by_object = quadsim.run(ch, gait="trot", seconds=1)
+    assert ch.id == "my_dog"
+    np.testing.assert_array_equal(by_path.root_positions, by_object.root_positions)
+    assert quadsim.resolve(ch).character == str(mine)
