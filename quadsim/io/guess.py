@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.errors import InputError
-from quadsim.frames import LEGS, X, Y, Z
+from quadsim.frames import LEGS, Y
 from quadsim.skeleton.skeleton import Skeleton
 
 __all__ = ["CM_ABOVE", "feet_from_structure", "guess_foot_joints", "guess_units",
@@ -93,11 +93,9 @@ def guess_foot_joints(skeleton: Skeleton) -> tuple[str, ...] | None:
 def feet_from_structure(skeleton: Skeleton) -> tuple[str, ...] | None:
     """The four foot joints of a quadruped skeleton whatever their names.
 
-    In the rest pose (the bone offsets, no rotation) the feet are the four
-    lowest end joints (joints without children), provided they stand in the
-    four quarters around the body: two left of the middle (+X) and two right,
-    and on each side one ahead (+Z) of the other. The lowest four must also
-    be clearly below the root (by half its height above the lowest one).
+    The structure is read from the tree and the rest pose by
+    :func:`quadsim.skeleton.anatomy.find_anatomy`: the four lowest end joints
+    near the ground, fore and hind by their girdles, left on +X.
 
     Parameters
     ----------
@@ -106,28 +104,16 @@ def feet_from_structure(skeleton: Skeleton) -> tuple[str, ...] | None:
     Returns
     -------
     tuple of str, length 4, or None
-        In leg order LF, RF, LH, RH; None when the shape does not show four
-        legs that way.
+        In leg order LF, RF, LH, RH; None when the skeleton does not have a
+        quadruped's structure.
     """
-    P = _rest_positions(np.asarray(skeleton.offsets, dtype=float), list(skeleton.parents))
-    leaves = [j for j in range(skeleton.n_joints) if not skeleton.children[j]]
-    if len(leaves) < 4:
+    from quadsim.skeleton.anatomy import find_anatomy
+
+    try:
+        feet = find_anatomy(skeleton).feet
+    except ValueError:
         return None
-    low = sorted(leaves, key=lambda j: (P[j, Y], j))[:4]
-    bottom = P[low, Y].max()
-    drop = P[0, Y] - P[low, Y].min()
-    if drop <= 1e-9 or P[0, Y] - bottom < 0.5 * drop:
-        return None
-    mid_x = P[low, X].mean()
-    left = [j for j in low if P[j, X] > mid_x]
-    right = [j for j in low if P[j, X] < mid_x]
-    if len(left) != 2 or len(right) != 2:
-        return None
-    lf, lh = sorted(left, key=lambda j: -P[j, Z])
-    rf, rh = sorted(right, key=lambda j: -P[j, Z])
-    if P[lf, Z] - P[lh, Z] <= 1e-9 or P[rf, Z] - P[rh, Z] <= 1e-9:
-        return None
-    return tuple(skeleton.names[j] for j in (lf, rf, lh, rh))
+    return tuple(skeleton.names[j] for j in feet)
 
 
 def with_feet(motion, source="the motion"):
