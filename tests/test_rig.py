@@ -204,9 +204,8 @@ def test_the_written_model_passes_the_khronos_validator(fox, fox_motion, tmp_pat
     assert names == ["Survey", "Walk", "Run", "trot", "Walk_2"]
 
 
+@needs_fox
 def test_a_motion_of_another_skeleton_is_refused(fox, tmp_path):
-    if not FOX.is_file():
-        pytest.skip("no Fox")
     import quadsim
     from quadsim.io.rig_export import write_into_model
 
