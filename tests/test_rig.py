@@ -153,7 +153,16 @@ def test_the_motion_is_written_into_the_users_own_model(fox, fox_motion, tmp_pat
     assert len(g.materials) == len(src.materials) and len(g.images) == len(src.images)
     assert [a.name for a in g.animations] == ["Survey", "Walk", "Run", "quadsim"]
     # the added animation puts every joint where quadsim's skeleton has it
-    anim = g.animations[-1]
+    rot, trans = _channels(g, g.animations[-1])
+    assert set(rot) == set(int(n) for n in fox.nodes) and list(trans) == [int(fox.nodes[0])]
+    P = fox_motion.world_positions()
+    for k in (0, 17, 47):
+        got = _animated_positions(g, rot, trans, fox, k)
+        np.testing.assert_allclose(got, P[k], atol=2e-5)  # float32 keys
+
+
+def _channels(g, anim):
+    """Rotation and translation keys of an animation, by node."""
     blob = g.binary_blob()
 
     def read(acc_index, width):
@@ -170,13 +179,13 @@ def test_the_motion_is_written_into_the_users_own_model(fox, fox_motion, tmp_pat
             rot[ch.target.node] = read(s.output, 4)
         else:
             trans[ch.target.node] = read(s.output, 3)
-    assert set(rot) == set(int(n) for n in fox.nodes) and list(trans) == [int(fox.nodes[0])]
-    P = fox_motion.world_positions()
-    for k in (0, 17, 47):
-        W = _node_world(g, {n: q[k] for n, q in rot.items()},
-                        {n: v[k] for n, v in trans.items()})
-        got = np.array([W[int(n)][:3, 3] for n in fox.nodes]) * fox.scale
-        np.testing.assert_allclose(got, P[k], atol=2e-5)  # float32 keys
+    return rot, trans
+
+
+def _animated_positions(g, rot, trans, rig, k):
+    """World positions (m) of the rig's joints at key ``k``."""
+    W = _node_world(g, {n: q[k] for n, q in rot.items()}, {n: v[k] for n, v in trans.items()})
+    return np.array([W[int(n)][:3, 3] for n in rig.nodes]) * rig.scale
 
 
 @needs_fox
@@ -225,14 +234,68 @@ def test_the_fox_is_adopted_with_its_chains_and_a_report():
     assert a.spine == ("b_Hip_01", "b_Spine01_02", "b_Spine02_03")
     assert (a.neck, a.head) == (("b_Neck_04",), "b_Head_05")
     assert a.tail == ("b_Tail01_012", "b_Tail02_013", "b_Tail03_014")
-    assert a.legs["LF"][-1] == "b_LeftHand_011" and a.legs["RH"][-1] == "b_RightFoot02_022"
+    assert a.legs["LF"][-2] == "b_LeftHand_011" and a.legs["RH"][-1] == "b_RightFoot02_022"
     assert set(a.ignored) == {"_rootJoint", "b_Root_00"}
-    assert a.skeleton.names[0] == "b_Hip_01" and a.skeleton.n_joints == 22
-    # the kept joints stand where the rig's stand
-    np.testing.assert_allclose(a.skeleton.rest_positions,
-                               a.rig.rest_positions[a.rig_index], atol=1e-12)
+    # 22 rig joints from the pelvis down, and a toe of quadsim's own under each fore
+    # "hand" (the wrist: 6.7 cm above the ground)
+    assert a.skeleton.names[0] == "b_Hip_01" and a.skeleton.n_joints == 24
+    assert a.legs["LF"][-1] == "b_LeftHand_011_toe"
+    # the kept joints stand where the rig's stand, the ground (its lowest toe) at y = 0;
+    # leg joints put in their leg's plane move by at most a few millimetres
+    kept = a.skeleton.rest_positions[:len(a.rig_index)]
+    rig = a.rig.rest_positions[a.rig_index] - [0.0, a.ground, 0.0]
+    assert np.abs(kept - rig).max() < 0.003
     report = a.report()
     assert "leg LH (3 bones" in report and "unit cm" in report and "ignored (2)" in report
     data = tomllib.loads(a.character_toml("fox", name="Fox"))
-    assert len(data["joints"]) == 22 and data["legs"]["LF"]["bend"] == "back"
+    assert len(data["joints"]) == 24 and data["legs"]["LF"]["bend"] == "back"
     assert data["legs"]["LH"]["ik"] == "b_LeftLeg01_015"
+
+
+@needs_fox
+def test_the_fox_trots_in_its_own_model(tmp_path):
+    """Adopted, run as a character, written into the user's own file: the Fox's mesh and
+    every joint kept, trotting with planted feet, travelling forward, validating."""
+    import pygltflib
+
+    import quadsim
+    from gltf_tools import validate
+    from quadsim.io.adopt import adopt
+    from quadsim.skeleton.contacts import foot_contacts
+
+    a = adopt(FOX)
+    path = tmp_path / "fox.toml"
+    path.write_text(a.character_toml("fox", name="Fox"), encoding="utf-8")
+    fox = quadsim.load_character(path)
+    motion = quadsim.run(fox, gait="trot", seconds=6)
+    # trotting from the feet: diagonal pairs down together, the pairs alternating
+    c = foot_contacts(motion.foot_positions(), motion.fps)[120:]
+    lf, rf, lh, rh = c.T
+    assert (lf == rh).mean() > 0.8 and (rf == lh).mean() > 0.8 and (lf != rf).mean() > 0.5
+    feet = motion.foot_positions()[120:]
+    slide = max(np.ptp(feet[s:e, i][:, [0, 2]], axis=0).max()
+                for i in range(4) for s, e in _runs(c[:, i]))
+    height = float(np.ptp(a.rig.rest_positions[:, 1]))
+    assert slide < 0.01 * height
+    assert motion.root_positions[-1, 2] - motion.root_positions[0, 2] > 5.0
+    out = a.write(motion, tmp_path / "fox_trot.glb", names=["trot"])
+    g = pygltflib.GLTF2().load(str(out))
+    src = pygltflib.GLTF2().load(str(FOX))
+    assert [n.name for n in g.nodes] == [n.name for n in src.nodes]
+    assert g.accessors[g.meshes[0].primitives[0].attributes.POSITION].count == 1728
+    assert [an.name for an in g.animations] == ["Survey", "Walk", "Run", "trot"]
+    # the rig's own joints follow: where quadsim put them (legs projected into their
+    # planes by millimetres), the ground back at the rig's own height
+    rot, trans = _channels(g, g.animations[-1])
+    P = motion.world_positions()
+    mine = [motion.skeleton.names.index(n) for n in a.rig.names if n in motion.skeleton.names]
+    theirs = [j for j, n in enumerate(a.rig.names) if n in motion.skeleton.names]
+    for k in (0, 150, 359):
+        got = _animated_positions(g, rot, trans, a.rig, k)[theirs]
+        np.testing.assert_allclose(got - [0.0, a.ground, 0.0], P[k, mine], atol=0.005)
+    assert validate(out)[0]["issues"]["numErrors"] == 0
+
+
+def _runs(mask):
+    m = np.concatenate([[False], mask, [False]]).astype(np.int8)
+    return list(zip(np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)))

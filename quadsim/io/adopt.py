@@ -24,7 +24,16 @@ from quadsim.io.rig import Rig, read_gltf_rig
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.skeleton import Skeleton
 
-__all__ = ["Adoption", "adopt"]
+__all__ = ["PLANE_TOLERANCE", "TOE_SUFFIX", "TOE_TOLERANCE", "Adoption", "adopt"]
+
+#: A foot joint higher than this (fraction of the hip height) above the lowest
+#: foot gets a toe joint of quadsim's own on the ground below it.
+TOE_TOLERANCE = 0.05
+#: Name suffix of those toe joints.
+TOE_SUFFIX = "_toe"
+#: How far (fraction of the leg's length) a rig's leg joints may stand off the
+#: leg's sagittal plane; they are put in it.
+PLANE_TOLERANCE = 0.05
 
 
 @dataclass(frozen=True, eq=False)
@@ -36,8 +45,10 @@ class Adoption:
     rig : Rig
     skeleton : Skeleton
         The kept joints, rooted at the pelvis, in metres, identity rest rotations.
-    rig_index : ndarray of int, shape (J,)
-        Each kept joint's index among the rig's joints.
+    rig_index : ndarray of int, shape (K,)
+        The rig joint of each of the first K joints of :attr:`skeleton`; the
+        joints after them are quadsim's own toe joints (named ``<foot>_toe``)
+        below rig feet that stand above the ground (a wrist as the last joint).
     anatomy : Anatomy
         Of :attr:`skeleton`.
     spine, neck, tail : tuple of str
@@ -47,6 +58,9 @@ class Adoption:
         Each leg's chain, LF, RF, LH, RH, from its top joint to its foot.
     ignored : dict of str to str
         Rig joints not kept, with the reason.
+    ground : float
+        Height of the rig's ground (its lowest foot) in the rig's world (m):
+        :attr:`skeleton` stands with it at y = 0.
     """
 
     rig: Rig
@@ -59,6 +73,15 @@ class Adoption:
     tail: tuple[str, ...]
     legs: dict = field(default_factory=dict)
     ignored: dict = field(default_factory=dict)
+    ground: float = 0.0
+
+    def write(self, motions, path, *, names=None):
+        """Write ``motions`` of :attr:`skeleton` into the rig's own model
+        (:func:`~quadsim.io.rig_export.write_into_model`)."""
+        from quadsim.io.rig_export import write_into_model
+
+        return write_into_model(self.rig, motions, path, names=names,
+                                root_offset=np.array([0.0, self.ground, 0.0]))
 
     def _length(self, chain) -> float:
         P = self.skeleton.rest_positions
@@ -182,16 +205,40 @@ def adopt(path) -> Adoption:
     tail = path_down(a.pelvis, min(leaves, key=lambda j: P[j, 2]))[1:] if leaves else []
     keep = sorted(set(a.spine) | set(head_path) | set(tail)
                   | {j for leg in a.legs for j in leg})
+    # the legs swing in their sagittal planes: joints below a leg's top are put in
+    # its plane (a rig's are off it by millimetres); farther off is no leg to adopt
+    P = P.copy()
+    for leg, chain in zip(LEGS, a.legs):
+        top = chain[0]
+        length = float(np.linalg.norm(P[chain[-1]] - P[top]))
+        off = np.abs(P[list(chain[1:]), 0] - P[top, 0]).max()
+        if off > PLANE_TOLERANCE * length:
+            raise ValueError(f"leg {leg} ({full.names[top]} to {full.names[chain[-1]]}) bends "
+                             f"{off:.3f} m out of its plane ({PLANE_TOLERANCE:.0%} of its "
+                             "length at most): quadsim's legs swing in their sagittal plane")
+        P[list(chain[1:]), 0] = P[top, 0]
     index = {j: k for k, j in enumerate(keep)}
-    names = tuple(full.names[j] for j in keep)
+    names = list(full.names[j] for j in keep)
     new_parents = [-1] + [index[int(parents[j])] for j in keep[1:]]
-    offsets = np.array([P[keep[0]]] + [P[j] - P[parents[j]] for j in keep[1:]])
+    floor = float(min(P[f, Y] for f in a.feet))
+    at = [P[j] - np.array([0.0, floor, 0.0]) for j in keep]          # the ground at y = 0
+    legs = [[full.names[j] for j in chain] for chain in a.legs]
+    for leg, foot in zip(legs, a.feet):
+        if P[foot, Y] - floor <= TOE_TOLERANCE * a.hip_height:
+            at[index[foot]][Y] = 0.0            # on the ground (a rig's feet differ by a hair)
+        else:  # a foot joint above the ground (a wrist): a toe joint of quadsim's own below it
+            names.append(f"{full.names[foot]}{TOE_SUFFIX}")
+            new_parents.append(index[foot])
+            at.append(np.array([P[foot, 0], 0.0, P[foot, 2]]))
+            leg.append(names[-1])
+    at = np.array(at)
+    offsets = np.array([at[0]] + [at[k] - at[new_parents[k]] for k in range(1, len(at))])
     ends = {}
     for j in keep:
         if not any(c in index for c in kids[j]) and kids[j]:
             far = max((c for c in kids[j]), key=lambda c: np.linalg.norm(P[c] - P[j]))
             ends[full.names[j]] = P[far] - P[j]
-    sk = Skeleton(names, new_parents, offsets, ends)
+    sk = Skeleton(tuple(names), new_parents, offsets, ends)
     above = set(range(len(full.names))) - set(keep)
     top_chain = set(path_down(0, a.pelvis)) - {a.pelvis}
     ignored = {full.names[j]: _why(full.names[j], j in top_chain) for j in sorted(above)}
@@ -200,5 +247,5 @@ def adopt(path) -> Adoption:
         rig=rig, skeleton=sk, rig_index=np.array(keep, dtype=np.int64),
         anatomy=find_anatomy(sk), spine=tuple(nm[j] for j in a.spine),
         neck=tuple(nm[j] for j in neck), head=nm[head], tail=tuple(nm[j] for j in tail),
-        legs={leg: tuple(nm[j] for j in chain) for leg, chain in zip(LEGS, a.legs)},
-        ignored=ignored)
+        legs={leg: tuple(chain) for leg, chain in zip(LEGS, legs)},
+        ignored=ignored, ground=floor)

@@ -155,7 +155,40 @@ def _unique(names: list[str], taken: set[str]) -> list[str]:
     return out
 
 
-def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None) -> Path:
+def _world_changes(rig: Rig, motion, root_offset) -> tuple[np.ndarray, np.ndarray]:
+    """The rig joints' world rotations (T, J, 3, 3) and the top joint's world position
+    (T, 3) (m) for a motion of a skeleton that shares joint names with the rig.
+
+    A rig joint the motion has turns by the motion joint's world rotation; one it
+    lacks turns with its nearest ancestor the motion has, and the joints above the
+    motion's root keep their rest rotations, the top one moved so that the motion's
+    root joint lands at the motion's root position plus ``root_offset``.
+    """
+    mine = {n: k for k, n in enumerate(motion.skeleton.names)}
+    G = motion.world_rotations()
+    T = motion.n_frames
+    root_name = motion.skeleton.names[0]
+    if root_name not in rig.names:
+        raise InputError(f"the motion's root joint {root_name!r} is not a joint of "
+                         f"{rig.path.name}")
+    source = np.full(len(rig.names), -1)
+    for j, n in enumerate(rig.names):
+        if n in mine:
+            source[j] = mine[n]
+        elif rig.parents[j] >= 0:
+            source[j] = source[rig.parents[j]]
+    D = np.broadcast_to(np.eye(3), (T, len(rig.names), 3, 3)).copy()
+    has = source >= 0
+    D[:, has] = G[:, source[has]]
+    W = D @ rig.rest_rotations
+    r = rig.names.index(root_name)
+    P0 = rig.rest_positions
+    top = np.asarray(motion.root_positions, float) + root_offset - (P0[r] - P0[0])
+    return W, top
+
+
+def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
+                     root_offset=(0.0, 0.0, 0.0)) -> Path:
     """Write the rig's model with ``motions`` added as named animations.
 
     Parameters
@@ -163,12 +196,18 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None) 
     rig : Rig
         The rig, read from the model file (:func:`~quadsim.io.rig.read_gltf_rig`).
     motions : Motion or sequence of Motion
-        Motions of ``rig.skeleton()`` (same joint names in the same order).
+        Motions of a skeleton whose joints are rig joints by name (``rig.skeleton()``,
+        or an adopted one rooted lower with joints of its own); rig joints it
+        lacks follow their nearest ancestor it has.
     path : str or path-like
         The ``.glb`` to write (whole or not at all).
     names : sequence of str, optional
         Animation names; default ``quadsim`` (one motion) or ``quadsim_1``, ...
         Names the model already uses get a ``_2``, ``_3`` suffix.
+    root_offset : array-like, shape (3,)
+        Where the rig's joint of the motion's root stands relative to the
+        motion's root position (m) -- an adopted skeleton stands with the
+        rig's ground at y = 0.
 
     Returns
     -------
@@ -188,9 +227,10 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None) 
     if not motions:
         raise InputError("give at least one motion to write into the model")
     for m in motions:
-        if tuple(m.skeleton.names) != rig.names:
+        if m.skeleton.names[0] not in rig.names:
             raise InputError(f"a motion of another skeleton cannot animate {rig.path.name}: "
-                             "make it from the rig's own skeleton (Rig.skeleton())")
+                             "make it from the rig's own skeleton (Rig.skeleton() or the "
+                             "adopted character)")
         if m.n_frames < 1:
             raise InputError("a motion with no frame cannot be written")
     if names is None:
@@ -209,14 +249,16 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None) 
     above = rig.above
     above_rot = above[:3, :3] / np.linalg.norm(above[:3, :3], axis=0, keepdims=True)
     inv_above = np.linalg.inv(above)
+    offset = np.asarray(root_offset, dtype=float)
     for motion, name in zip(motions, names):
-        G = motion.world_rotations()
-        L = rig.local_rotations(G)                                   # (T, J, 3, 3)
-        L[:, 0] = above_rot.T @ L[:, 0]                              # root: in the node above
+        W, top = _world_changes(rig, motion, offset)                 # (T, J, 3, 3), (T, 3)
+        L = W.copy()
+        p = rig.parents[1:]
+        L[:, 1:] = np.swapaxes(W[:, p], -1, -2) @ W[:, 1:]
+        L[:, 0] = above_rot.T @ W[:, 0]                              # root: in the node above
         q = quaternions_from_matrices(L)                             # (T, J, 4) w, x, y, z
         q = np.concatenate([q[..., 1:], q[..., :1]], axis=-1)        # glTF: x, y, z, w
-        root = np.asarray(motion.root_positions, float) / rig.scale
-        t = root @ inv_above[:3, :3].T + inv_above[:3, 3]
+        t = (top / rig.scale) @ inv_above[:3, :3].T + inv_above[:3, 3]
         times = np.arange(motion.n_frames, dtype=float) / motion.fps
         time_acc = _accessor(g, blob, times, "SCALAR", with_range=True)
         samplers, channels = [], []

@@ -352,8 +352,8 @@ def build_character(cf: CharacterFile) -> Character:
 
     c = cf.chains
     spine = [joints.index(n, f"{src}: chains.spine") for n in c.spine]
-    if len(spine) < 5:
-        raise InputError(f"{src}: chains.spine needs the pelvis and at least four more joints")
+    if len(spine) < 3:
+        raise InputError(f"{src}: chains.spine needs the pelvis and at least two more joints")
     if spine[0] != 0:
         raise InputError(f"{src}: chains.spine must start at the root joint {names[0]!r}")
     limits = {joints.index(n, f"{src}: limits"): (np.radians(lo), np.radians(hi))
