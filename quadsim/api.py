@@ -28,8 +28,8 @@ from pathlib import Path
 from quadsim.commands import Command, Script
 from quadsim.errors import InputError, QuadsimClampWarning
 
-__all__ = ["DEFAULT_SECONDS", "FORMATS", "MODES", "check_mode", "make_controller", "resolve",
-           "run", "save", "simulate"]
+__all__ = ["DEFAULT_SECONDS", "FORMATS", "MODES", "check_mode", "make_controller", "model_of",
+           "resolve", "run", "save", "simulate"]
 
 #: Length (s) of a run made from a character without a config.
 DEFAULT_SECONDS = 10.0
@@ -152,6 +152,12 @@ def simulate(character, commands: Script | Command, *, seconds: float,
     return simulate_procedural(character, commands, seconds, fps, seed=seed)
 
 
+def _animation_name(motion) -> str:
+    gaits = [] if motion.gaits is None else list(dict.fromkeys(
+        str(g) for g in motion.gaits if "->" not in str(g)))
+    return "+".join(gaits) or "quadsim"
+
+
 def _shipped_ids() -> set[str]:
     from quadsim.skeleton.character import list_characters
 
@@ -265,7 +271,13 @@ def run_reporting(config, report=None):
     return motion
 
 
-def save(motion, path, *, units: str = "m") -> Path:
+def model_of(character):
+    """The user's own model (a ``.gltf``/``.glb`` path) a character was adopted from, or None."""
+    f = getattr(character, "file", None)
+    return None if f is None else f.character.model
+
+
+def save(motion, path, *, units: str = "m", character=None) -> Path:
     """Write ``motion`` to ``path``, the format chosen by the extension.
 
     Parameters
@@ -277,6 +289,10 @@ def save(motion, path, *, units: str = "m") -> Path:
         Missing folders are created; the file is written whole or not at all.
     units : {"m", "cm"}
         Length unit of a BVH file; the other formats are always in metres.
+    character : Character, optional
+        The character the motion is of. When it was adopted from the user's own
+        model (its file's ``character.model``), a ``.glb`` is that model with
+        the motion added as an animation (:mod:`quadsim.io.rig_export`).
 
     Returns
     -------
@@ -307,6 +323,10 @@ def save(motion, path, *, units: str = "m") -> Path:
         from quadsim.io.bvh import write_bvh
 
         write_bvh(motion, path, units=units)
+    elif ext == ".glb" and model_of(character) is not None:
+        from quadsim.io.adopt import adopt
+
+        adopt(model_of(character)).write(motion, path, names=[_animation_name(motion)])
     elif ext == ".glb":
         from quadsim.io.gltf import write_glb
 

@@ -14,6 +14,7 @@
                     [--camera follow|side|top]
     quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
                    [--camera follow|side|top] [--fps N]
+    quadsim rig MODEL.glb|.gltf [--out CHARACTER.toml] [--id ID]
     quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
@@ -75,7 +76,7 @@ def cmd_run(args) -> int:
     motion = run_reporting(config, _report_warning)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        save(motion, out, units=config.units)
+        save(motion, out, units=config.units, character=character)
     for w in caught:
         _report_warning(str(w.message))
     gaits = _gaits_used(motion)
@@ -364,6 +365,12 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_rig(args) -> int:
+    from quadsim.cli_rig import adopt_command
+
+    return adopt_command(args)
+
+
 def cmd_bench(args) -> int:
     # the suite lives in the source checkout's benchmarks/, beside the package
     try:
@@ -483,6 +490,17 @@ def build_parser() -> argparse.ArgumentParser:
                     "size)")
     rd.add_argument("--quiet", action="store_true", help="no progress bar")
     rd.set_defaults(func=cmd_render)
+
+    rg = sub.add_parser("rig", help="adopt your own rigged quadruped (glTF) as a character",
+                        description="Find a rig's legs, spine, neck, head and tail from its "
+                        "shape, print what was matched and ignored, and write a character "
+                        "file that refers to the model; `quadsim run` of that file writes "
+                        ".glb files into your own model.")
+    rg.add_argument("model", metavar="MODEL.glb|.gltf")
+    rg.add_argument("--out", metavar="CHARACTER.toml",
+                    help="character file to write (default <model name>.toml)")
+    rg.add_argument("--id", help="character identifier (default from the model's name)")
+    rg.set_defaults(func=cmd_rig)
 
     b = sub.add_parser("bench", help="measure step rate, offline generation, many "
                        "characters and export on this machine",

@@ -25,7 +25,7 @@ LAYERS = [
     ("quadsim.config",),
     ("quadsim.api",),
     ("quadsim.viz",),
-    ("quadsim.cli", "quadsim.__main__", "quadsim"),
+    ("quadsim.cli", "quadsim.cli_rig", "quadsim.__main__", "quadsim"),
 ]
 
 #: Pairs of the same layer that must not import each other (either way).

@@ -299,3 +299,31 @@ def test_the_fox_trots_in_its_own_model(tmp_path):
 def _runs(mask):
     m = np.concatenate([[False], mask, [False]]).astype(np.int8)
     return list(zip(np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)))
+
+
+@needs_fox
+def test_quadsim_rig_then_run_writes_into_the_users_model(tmp_path, capsys):
+    """`quadsim rig` writes a character referring to the model; `quadsim run` of it to a
+    .glb gives the model with a trot added."""
+    import pygltflib
+
+    from quadsim.cli import main
+
+    char = tmp_path / "chars" / "fox.toml"
+    assert main(["rig", str(FOX), "--out", str(char)]) == 0
+    out = capsys.readouterr().out
+    assert "leg LH (3 bones" in out and f"wrote {char}" in out
+    glb = tmp_path / "fox_trot.glb"
+    assert main(["run", str(char), "--gait", "trot", "--seconds", "2", "--out", str(glb)]) == 0
+    g = pygltflib.GLTF2().load(str(glb))
+    assert len(g.nodes) == 26 and [a.name for a in g.animations][-1] == "trot"
+    assert g.accessors[g.meshes[0].primitives[0].attributes.POSITION].count == 1728
+
+
+def test_quadsim_rig_refuses_what_it_cannot_adopt(tmp_path, capsys):
+    from quadsim.cli import main
+
+    assert main(["rig", str(tmp_path / "none.glb")]) == 2
+    assert "no such file" in capsys.readouterr().err
+    assert main(["rig", str(tmp_path / "x.fbx")]) == 2
+    assert "reads .gltf or .glb" in capsys.readouterr().err

@@ -110,8 +110,9 @@ class Adoption:
         return "\n".join(lines)
 
     def character_toml(self, character_id: str, *, name: str | None = None,
-                       mass: float | None = None) -> str:
-        """A character file for the adopted rig (TOML text)."""
+                       mass: float | None = None, model: str | None = None) -> str:
+        """A character file for the adopted rig (TOML text); ``model`` is the rig's path
+        as the file should refer to it (relative to the file's folder)."""
         sk = self.skeleton
         h = self.anatomy.hip_height
         mass = mass if mass is not None else round(float(55.0 * (h / 0.57) ** 3), 2)
@@ -133,7 +134,8 @@ class Adoption:
                        f"{tail} }},")
         out += ["]", "", "[character]", f'id = "{character_id}"',
                 f'name = "{name or character_id}"', f"mass = {mass:g}",
-                f'sources = ["Rig: {self.rig.path.name} ({self.rig.unit})"]', "",
+                f'sources = ["Rig: {self.rig.path.name} ({self.rig.unit})"]',
+                *([f"model = {_toml_string(model)}"] if model else []), "",
                 "[chains]", f"spine = {names(self.spine)}", f"neck = {names(self.neck)}",
                 f'head = "{self.head}"', f"tail = {names(self.tail)}", ""]
         for leg in LEGS:
@@ -149,6 +151,10 @@ class Adoption:
                 f"max_turn_rate_deg_s = {120.0 * (0.57 / h) ** 0.5:.0f}",
                 "spine_flex_deg = 20.0", "spine_extend_deg = -12.0", ""]
         return "\n".join(out)
+
+
+def _toml_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
 _HELPER = re.compile(r"(twist|roll|helper|ik|pole|target|ctrl|control|end|nub)", re.I)

@@ -60,7 +60,7 @@ GAIT_FIELDS = ("duty", "phase", "froude", "speed", "stride", "swing_height", "sp
 _TOP_KEYS = ("mirror_left_legs", "joints", "character", "chains", "legs", "limits",
              "locomotion", "gaits")
 _JOINT_KEYS = ("name", "parent", "offset", "end")
-_META_KEYS = ("id", "name", "species", "mass", "sources")
+_META_KEYS = ("id", "name", "species", "mass", "sources", "model")
 _CHAIN_KEYS = ("spine", "neck", "head", "tail")
 _LEG_KEYS = ("chain", "ik", "bend", "pre_gain", "post_gain")
 
@@ -89,13 +89,16 @@ class JointEntry:
 
 @dataclass(frozen=True)
 class CharacterMeta:
-    """The ``[character]`` table: ``id``, ``name``, ``species``, ``mass`` (kg), ``sources``."""
+    """The ``[character]`` table: ``id``, ``name``, ``species``, ``mass`` (kg), ``sources``,
+    and ``model``: the user's own rigged model (glTF) the character was adopted from,
+    its path relative to the character file (an absolute :class:`~pathlib.Path` here)."""
 
     id: str
     name: str
     species: str
     mass: float
     sources: tuple[str, ...] = ()
+    model: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -319,7 +322,17 @@ def _meta(t: dict, where: str, src: str) -> CharacterMeta:
     sources = t.get("sources", [])
     if not isinstance(sources, list) or not all(isinstance(s, str) for s in sources):
         raise InputError(f"{src}: character.sources must be a list of strings")
-    return CharacterMeta(ident, name, species, float(mass), tuple(sources))
+    model = t.get("model")
+    if model is not None:
+        if not isinstance(model, str) or not model:
+            raise InputError(f"{src}: character.model must be the path of a .gltf or .glb "
+                             f"file, got {model!r}")
+        base = Path(src).parent if not src.startswith("<") else Path(".")
+        model = (base / model).resolve()
+        if model.suffix.lower() not in (".gltf", ".glb") or not model.is_file():
+            raise InputError(f"{src}: character.model: no .gltf or .glb file at {model}; "
+                             "give the rigged model's path relative to the character file")
+    return CharacterMeta(ident, name, species, float(mass), tuple(sources), model)
 
 
 def _chains(t: dict, src: str) -> Chains:
