@@ -226,10 +226,33 @@ def resolve(source, *, mode: str | None = None, seconds: float | None = None,
                            mode=run_mode, units="m",
                            commands=Script.constant(constant_command(character)))
     if mode is not None and mode != config.mode:
-        check_mode(config.load_character(), mode, "`--mode`")
+        character = config.load_character()
+        check_mode(character, mode, "`--mode`")
+        if speed is None and gait is None and turn_rate_deg_s is None:
+            _check_script_for(config, character, mode)
         config = replace(config, mode=mode)
     return with_overrides(config, duration=seconds, fps=fps, units=units, speed=speed,
                           gait=gait, turn_rate_deg_s=turn_rate_deg_s)
+
+
+def _check_script_for(config, character, mode: str) -> None:
+    """A config's commands must suit the mode ``--mode`` switches it to."""
+    where = str(config.source) if config.source is not None else "the config"
+    if mode == "data":
+        from quadsim.io.clips import playable_gaits
+
+        clips = playable_gaits(character)
+        for k, c in enumerate(config.commands.commands):
+            if c.gait is not None and (c.gait if c.gait != "transverse_gallop"
+                                       else "gallop") not in clips:
+                raise InputError(f"`--mode data`: {where}: `command[{k}].gait` = {c.gait!r} "
+                                 f"has no clips in {character.id}'s database; allowed: "
+                                 f"{', '.join(clips)}")
+    else:
+        for k, c in enumerate(config.commands.commands):
+            if c.slope:
+                raise InputError(f"`--mode {mode}`: {where}: `command[{k}].slope_deg` needs "
+                                 "the data mode (the procedural mode walks on flat ground)")
 
 
 def run(source, **overrides):
