@@ -1,6 +1,6 @@
 """Adopting a user's rig: its locomotion structure, a match report, a character file.
 
-:func:`adopt` reads a rig (:func:`~quadsim.io.rig.read_rig`: glTF or BVH, in
+:func:`adopt` reads a rig (:func:`read_rig`: glTF or BVH, in
 its own axes and unit), finds its quadruped structure from the geometry
 (:func:`~quadsim.io.rig_structure.find_structure`) and keeps the joints
 locomotion moves -- the spine from the pelvis to the withers, neck and head,
@@ -23,7 +23,8 @@ import numpy as np
 
 from quadsim.errors import InputError
 from quadsim.frames import LEGS, Y
-from quadsim.io.rig import Rig, foot_indices, read_rig
+from quadsim.io.bvh_rig import read_bvh_rig
+from quadsim.io.rig import Rig, foot_indices, read_gltf_rig
 from quadsim.io.rig_structure import (
     RigMatchError,
     find_structure,
@@ -35,7 +36,7 @@ from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.skeleton import Skeleton
 
 __all__ = ["IK_BEND", "PLANE_TOLERANCE", "TOE_SUFFIX", "TOE_TOLERANCE", "Adoption", "adopt",
-           "rig_foot", "write_for_character", "write_rig_motion"]
+           "read_rig", "rig_foot", "write_for_character", "write_rig_motion"]
 
 #: A foot joint higher than this (fraction of the hip height) above the lowest
 #: foot gets a toe joint of quadsim's own on the ground below it.
@@ -178,6 +179,22 @@ def _toml_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
+def read_rig(path, feet=None) -> Rig:
+    """The rig in ``path``: a ``.gltf``/``.glb`` model's first skin or a ``.bvh`` hierarchy.
+
+    ``feet`` (four joint names, optional) are the feet when given by hand;
+    they decide the up and forward axes. Raises :class:`InputError` for
+    another kind of file.
+    """
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == ".bvh":
+        return read_bvh_rig(path, feet=feet)
+    if ext in (".gltf", ".glb"):
+        return read_gltf_rig(path, feet=feet)
+    raise InputError(f"{path}: a rig is read from .gltf, .glb or .bvh files")
+
+
 def _ik_joint(P: np.ndarray, chain, fore: bool) -> int:
     """Position in ``chain`` of the IK pair's top: the first joint whose next joint bends
     the leg's way (an elbow back, a knee forward) by :data:`IK_BEND` of the pair's length,
@@ -214,10 +231,10 @@ def _reasons(full: Skeleton, s, keep: set, inline: dict) -> dict[str, str]:
             why = f"another toe of the foot {full.names[s.toes[j]]} (follows its parent)"
         elif j in inline:
             why = f"inline segment of leg {inline[j]}, straight at rest (follows its parent)"
+        elif s.away.get(j) == "face" or name_kind(name) == "face":
+            why = "face, head or body detail, by its name (follows the joint it hangs from)"
         elif j in under_head:
             why = "head detail beyond the head (follows the head)"
-        elif s.away.get(j) == "face" or name_kind(name) == "face":
-            why = "face or head detail, by its name (follows the joint it hangs from)"
         elif s.away.get(j) == "helper" or name_kind(name) == "helper":
             why = "twist, helper or control bone, by its name (follows its parent)"
         elif s.pelvis not in path_up(parents, j):
@@ -258,18 +275,21 @@ def adopt(path, feet=None) -> Adoption:
         legs_idx.append([j for j in chain if j not in drop])
     keep = sorted(set(s.spine) | set(s.neck) | {s.head} | set(s.tail)
                   | {j for chain in legs_idx for j in chain})
-    # the legs swing in their sagittal planes: joints below a leg's top are put in
-    # its plane (a rig's are off it by millimetres); farther off is no leg to adopt
+    # the legs swing in their sagittal planes: the joints below a leg's top are put
+    # in their common plane (a rig's are off it by millimetres; farther off is no leg
+    # to adopt), and the top joint (a scapula's head often lies nearer the spine)
+    # moves sideways into it, so that the rig's own leg below it is quadsim's
     for leg, chain in zip(LEGS, legs_idx):
-        top = chain[0]
+        top, below = chain[0], list(chain[1:])
         length = float(np.linalg.norm(P[chain[-1]] - P[top]))
-        off = np.abs(P[list(chain[1:]), 0] - P[top, 0]).max()
+        plane = float(np.mean(P[below, 0]))
+        off = np.abs(P[below, 0] - plane).max()
         if off > PLANE_TOLERANCE * length:
             raise RigMatchError(
                 f"leg {leg} ({full.names[top]} to {full.names[chain[-1]]}) bends {off:.3f} m "
                 f"out of its plane ({PLANE_TOLERANCE:.0%} of its length at most): quadsim's "
-                "legs swing in their sagittal plane", (f"legs.{leg}.chain",))
-        P[list(chain[1:]), 0] = P[top, 0]
+                "legs swing in their sagittal plane", ())
+        P[chain, 0] = plane
     index = {j: k for k, j in enumerate(keep)}
     names = [full.names[j] for j in keep]
 

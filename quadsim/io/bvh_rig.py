@@ -37,9 +37,6 @@ from quadsim.kinematics.rotations import euler_from_matrices
 
 __all__ = ["read_bvh_rig", "write_rig_bvh"]
 
-_UNIT = {"m": 1.0, "cm": 0.01}
-
-
 def read_bvh_rig(path, feet=None) -> Rig:
     """Read the hierarchy of a BVH file as a :class:`~quadsim.io.rig.Rig`.
 

@@ -22,8 +22,8 @@ height along the up axis (:func:`guess_unit`), and both are reported. The
 rig keeps its own frame and unit (:attr:`Rig.rest_world`); :attr:`Rig.axes`
 turns it into quadsim's (+Y up, +Z forward, +X left).
 
-:func:`read_rig` reads either kind of file: glTF here, BVH hierarchies with
-:func:`quadsim.io.bvh_rig.read_bvh_rig`.
+:func:`quadsim.io.adopt.read_rig` reads either kind of file: glTF here, BVH
+hierarchies with :func:`quadsim.io.bvh_rig.read_bvh_rig`.
 """
 
 from __future__ import annotations
@@ -38,7 +38,7 @@ from quadsim.io.rig_structure import detect_frame
 from quadsim.kinematics.rotations import matrices_from_quaternions
 from quadsim.skeleton.skeleton import Skeleton
 
-__all__ = ["UNITS", "Rig", "guess_unit", "read_gltf_rig", "read_rig"]
+__all__ = ["UNITS", "Rig", "foot_indices", "guess_unit", "read_gltf_rig"]
 
 #: Length units a rig may be in, as metres per unit.
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -189,24 +189,6 @@ def _node_matrix(node) -> np.ndarray:
     if node.translation is not None:
         M[:3, 3] = node.translation
     return M
-
-
-def read_rig(path, feet=None) -> Rig:
-    """The rig in ``path``: a ``.gltf``/``.glb`` model's first skin or a ``.bvh`` hierarchy.
-
-    ``feet`` (four joint names, optional) are the feet when given by hand;
-    they decide the up and forward axes. Raises :class:`InputError` for
-    another kind of file.
-    """
-    path = Path(path)
-    ext = path.suffix.lower()
-    if ext == ".bvh":
-        from quadsim.io.bvh_rig import read_bvh_rig
-
-        return read_bvh_rig(path, feet=feet)
-    if ext in (".gltf", ".glb"):
-        return read_gltf_rig(path, feet=feet)
-    raise InputError(f"{path}: a rig is read from .gltf, .glb or .bvh files")
 
 
 def foot_indices(names, feet, path) -> list[int] | None:
