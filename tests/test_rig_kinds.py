@@ -192,3 +192,97 @@ def test_each_kind_trots_in_its_own_file(kind, folder, capsys):
 
         issues = validate(out)[0]["issues"]
         assert issues["numErrors"] == 0, [m for m in issues["messages"] if m["severity"] == 0]
+
+
+# ------------------------------------------------------------ rigs it cannot map
+def _three_legged(spec):
+    """The rig without its right hind leg (and the helpers hanging from it)."""
+    leg = {spec.expect["RH"][0]}
+    for nm, p, _ in spec.joints:
+        if p in leg:
+            leg.add(nm)
+    spec.joints = [j for j in spec.joints if j[0] not in leg]
+    return spec
+
+
+def _two_spines(spec):
+    """A second copy of the skeleton (names ``*_b``) beside the first, on the same root."""
+    rootname = spec.joints[0][0]
+    copy = [(f"{nm}_b", rootname if p == rootname else f"{p}_b", pos + [0.8, 0.0, 0.0])
+            for nm, p, pos in spec.joints[1:]]
+    spec.joints += copy
+    return spec
+
+
+@pytest.mark.parametrize("fmt", [".glb", ".bvh"])
+def test_a_three_legged_rig_is_refused_with_what_was_found_and_the_keys_to_set(fmt, tmp_path,
+                                                                              capsys):
+    import tomllib
+
+    from quadsim.cli import main
+
+    spec = _three_legged(quadruped("tripod", style="blender"))
+    model = write_gltf(spec, tmp_path / "tripod.glb") if fmt == ".glb" else \
+        write_bvh_rig(spec, tmp_path / "tripod.bvh", unit="cm")
+    char = tmp_path / "tripod.toml"
+    assert main(["rig", str(model), "--out", str(char)]) == 2
+    err = capsys.readouterr().err
+    assert "found 3 leg(s) ending in a foot near the ground" in err
+    assert "toe.L" in err and "f_toe.L" in err and "f_toe.R" in err
+    assert "legs.RH.chain" in err and f"wrote the draft {char}" in err
+    assert "Traceback" not in err
+    draft = tomllib.loads(char.read_text())
+    assert draft["legs"]["RH"]["chain"] == [] and "SET BY HAND" in char.read_text()
+
+
+def test_a_rig_with_two_spines_is_refused_then_adopted_with_the_feet_set_by_hand(tmp_path,
+                                                                               capsys):
+    """Eight feet on four girdles: exit 2 and a draft; the feet named in the draft, the
+    same command adopts the first skeleton and the second follows its root."""
+    import quadsim
+    from quadsim.cli import main
+
+    spec = _two_spines(quadruped("twins", style="camel", face=False))
+    model = write_gltf(spec, tmp_path / "twins.glb", up="Z", unit="cm")
+    char = tmp_path / "twins.toml"
+    assert main(["rig", str(model), "--out", str(char)]) == 2
+    err = capsys.readouterr().err
+    assert "found 8 feet hanging from 4 girdle(s)" in err and "second spine" in err
+    assert "legs.LF.chain" in err
+    text = char.read_text()
+    for leg in LEGS:
+        foot = spec.expect[leg][1]
+        text = text.replace(f"[legs.{leg}]\nchain = []  # SET BY HAND",
+                            f'[legs.{leg}]\nchain = ["{foot}"]')
+    char.write_text(text)
+    assert main(["rig", str(model), "--out", str(char)]) == 0
+    out = capsys.readouterr().out
+    assert "the feet as named in" in out and "+Z up, -Y forward" in out
+    assert "LeftThigh_b" in out                              # the copy, ignored
+    motion = quadsim.run(quadsim.load_character(char), gait="trot", seconds=1)
+    assert motion.skeleton.names[0] == "Spine"
+
+
+def test_a_gltf_rig_run_to_bvh_is_the_users_hierarchy_in_its_own_axes_and_unit(tmp_path):
+    """A .bvh of a character adopted from a glTF model holds every joint of the model's
+    skin by its name, the OFFSETs of its rest pose in the file's frame and unit."""
+    import quadsim
+    from quadsim.io.adopt import adopt
+    from quadsim.io.bvh import read_bvh
+
+    kind = KINDS[0]                                    # Blender names, +Z up, centimetres
+    spec = kind.spec()
+    model = kind.write(spec, tmp_path)
+    a = adopt(model)
+    char = tmp_path / "dog.toml"
+    char.write_text(a.character_toml("dog", model=model.name), encoding="utf-8")
+    dog = quadsim.load_character(char)
+    out = quadsim.save(quadsim.run(dog, gait="trot", seconds=2), tmp_path / "dog.bvh",
+                       character=dog)
+    back = read_bvh(out, units="m")
+    assert set(back.skeleton.names) == set(spec.names)
+    P = back.world_positions()[0] @ kind.to_quadsim.T * kind.metres   # frame 0, m
+    Q = quadsim.run(dog, gait="trot", seconds=2).world_positions()[0]
+    for name in ("spine", "f_toe.L", "toe.R", "spine.006"):
+        got = P[back.skeleton.names.index(name)] - [0.0, a.ground, 0.0]
+        np.testing.assert_allclose(got, Q[dog.skeleton.names.index(name)], atol=2e-3)

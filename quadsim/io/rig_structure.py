@@ -14,8 +14,8 @@ say what they are:
   thigh and the shin keeps its place: its children are the leg).
 - **Feet** (:func:`find_feet`): the end joints within
   :data:`~quadsim.skeleton.anatomy.FOOT_BAND` of the rig's height above the
-  lowest one; end joints whose common ancestor is itself that low are toes of
-  one foot (the longest toe is the foot).
+  lowest one; end joints whose common ancestor is itself that low and that
+  near them are toes of one foot (the longest toe is the foot).
 - **Legs** (:func:`leg_groups`): each foot climbs to the first joint another
   foot also hangs from: its girdle. A quadruped has two girdles of two feet.
 - **Up** (:func:`detect_frame`): of the six signed axes, the one along which
@@ -148,7 +148,9 @@ def find_feet(P: np.ndarray, parents, away, up: np.ndarray) -> tuple[list[int], 
     for j in near:
         for c in clusters:
             common = next(a for a in anc[j] if a in anc[c[0]])
-            if h[common] - floor <= band:           # a toe of the same foot
+            near_both = max(np.linalg.norm(P[common] - P[j]),
+                            np.linalg.norm(P[common] - P[c[0]])) <= band
+            if h[common] - floor <= band and near_both:     # a toe of the same foot
                 c.append(j)
                 break
         else:
@@ -197,8 +199,9 @@ class Frame:
     height : float
         Standing height: the extent of the rig along its up axis (file units).
     found : bool
-        False when no axis shows two girdles of two feet (then +Y up, +Z
-        forward, the glTF and BVH convention, are assumed).
+        False when no axis shows two girdles of two feet: then up is the axis
+        along which the legs found hang longest (+Y when none), forward +Z
+        (-Y for +Z up, Blender's convention).
     """
 
     axes: np.ndarray
@@ -216,14 +219,17 @@ def _axis_name(v: np.ndarray) -> str:
     return ("+" if v[k] > 0 else "-") + _AXIS_NAMES[k]
 
 
-def _score(P, parents, away, up, feet=None):
-    """(score, groups) of standing along ``up``; score None when it shows no quadruped."""
+def _score(P, parents, away, up, feet=None, strict=True):
+    """(score, groups) of standing along ``up``; score None when it shows no quadruped
+    (``strict``: two girdles of two feet; else four feet or more on any girdles)."""
     if feet is None:
         feet, _ = find_feet(P, parents, away, up)
-    if len(feet) != 4:
+    if len(feet) < 4 or (strict and len(feet) != 4):
         return None, None
     groups = leg_groups(parents, feet)
-    if len(groups) != 2 or any(len(g) != 2 for g in groups.values()):
+    if strict and (len(groups) != 2 or any(len(g) != 2 for g in groups.values())):
+        return None, None
+    if not groups:
         return None, None
     h = P @ up
     usable = [j for j in range(len(P)) if j not in away]
@@ -265,18 +271,25 @@ def detect_frame(P: np.ndarray, names, parents, feet=None) -> Frame:
     Frame
     """
     away = named_away(names, parents)
-    best = (None, None, None)
-    for k in range(3):
-        for s in (1.0, -1.0):
-            up = np.zeros(3)
-            up[k] = s
-            score, groups = _score(P, parents, away, up, feet)
-            if score is not None and (best[0] is None or score > best[0]):
-                best = (score, groups, up)
+    usable = [j for j in range(len(P)) if j not in away]
+    for strict in (True, False):
+        best = (None, None, None)
+        for k in range(3):
+            for s in (1.0, -1.0):
+                up = np.zeros(3)
+                up[k] = s
+                score, groups = _score(P, parents, away, up, feet, strict)
+                if score is not None and (best[0] is None or score > best[0]):
+                    best = (score, groups, up)
+        if best[0] is not None:
+            break
     score, groups, up = best
-    if score is None:
-        usable = [j for j in range(len(P)) if j not in away]
-        return Frame(np.eye(3), "+Y", "+Z", float(np.ptp(P[usable, 1])), False)
+    if score is None or not strict:    # no quadruped: the up axis of the longest legs
+        up = np.array([0.0, 1.0, 0.0]) if score is None else up
+        fwd = np.array([0.0, -1.0, 0.0]) if up[2] else np.array([0.0, 0.0, 1.0])
+        axes = np.stack([np.cross(up, fwd), up, fwd])
+        return Frame(axes, _axis_name(up), _axis_name(fwd), float(np.ptp(P[usable] @ up)),
+                     False)
     hind = hind_girdle(parents, groups, P, up)
     fore = next(g for g in groups if g != hind)
     d = np.mean([P[f] for f, _ in groups[fore]], axis=0) - \
@@ -286,7 +299,6 @@ def detect_frame(P: np.ndarray, names, parents, feet=None) -> Frame:
     fwd = np.zeros(3)
     fwd[k] = np.sign(d[k]) or 1.0
     left = np.cross(up, fwd)
-    usable = [j for j in range(len(P)) if j not in away]
     return Frame(np.stack([left, up, fwd]), _axis_name(up), _axis_name(fwd),
                  float(np.ptp(P[usable] @ up)), True)
 
