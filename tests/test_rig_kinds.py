@@ -126,7 +126,7 @@ def _runs(mask):
     return list(zip(np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)))
 
 
-def _written_motion(kind, spec, out):
+def _written_motion(kind, out):
     """Joint world positions (T, J, 3) in quadsim's frame (m), by rig joint name, and fps."""
     if out.suffix == ".bvh":
         from quadsim.io.bvh import read_bvh
@@ -164,7 +164,7 @@ def test_each_kind_trots_in_its_own_file(kind, folder, capsys):
         assert count == [src.accessors[p.attributes.POSITION].count
                          for m in src.meshes for p in m.primitives] and count[0] > 0
         assert g.skins[0].joints == src.skins[0].joints
-    index, P, fps = _written_motion(kind, spec, out)
+    index, P, fps = _written_motion(kind, out)
     assert set(spec.names) <= set(index)                  # every one of the user's joints
     if ext == ".bvh":
         from quadsim.io.bvh import read_bvh

@@ -58,7 +58,8 @@ class RigMatchError(ValueError):
     found : str
         What was found (for the message).
     keys : tuple of str
-        Keys of the character file to set by hand (``legs.RH.chain``...).
+        Keys of the character file to set by hand (``legs.RH.chain``...);
+        empty when no key would help (the rig is refused).
     partial : dict of str to tuple of str
         Leg chains that were found, by leg name, for a draft file.
     """
@@ -71,7 +72,7 @@ class RigMatchError(ValueError):
 
 
 def name_words(name: str) -> tuple[str, ...]:
-    """The lower-case words of a bone name (``"b_LeftEar_03"`` -> ``("b", "left", "ear", "03")``)."""
+    """The lower-case words of a bone name: ``"b_LeftEar_03"`` -> ``("b", "left", "ear", "03")``."""
     return tuple(w.lower() for w in _SPLIT.findall(name))
 
 
@@ -342,7 +343,7 @@ class Structure:
     away: dict
 
 
-def _fail(found, keys, names, feet=None, legs=None):
+def _fail(found, keys, names, legs=None):
     partial = {}
     if legs is not None:
         partial = {leg: tuple(names[j] for j in chain) for leg, chain in legs.items()}
@@ -398,12 +399,11 @@ def find_structure(P: np.ndarray, names, parents, feet=None) -> Structure:
     if hind not in up_fore:
         _fail(f"the fore legs' girdle {names[fore]!r} does not hang from the hind legs' "
               f"{names[hind]!r} (the tree's root lies between them); quadsim roots the "
-              "character at the pelvis", ("chains.spine",), names, legs=chains)
+              "character at the pelvis", (), names, legs=chains)
     spine = tuple(reversed(up_fore[:up_fore.index(hind) + 1]))
     if len(spine) < 3:
         _fail(f"the spine from {names[hind]!r} to {names[fore]!r} has {len(spine)} joints; "
-              "quadsim bends a spine of at least three", ("chains.spine",), names,
-              legs=chains)
+              "quadsim bends a spine of at least three", (), names, legs=chains)
     kids = children(parents)
     used = set(spine) | {j for c in chains.values() for j in c}
     ahead = [j for j in range(len(names)) if not [c for c in kids[j] if c not in away]
@@ -411,7 +411,7 @@ def find_structure(P: np.ndarray, names, parents, feet=None) -> Structure:
              and fore in path_up(parents, j)]
     if not ahead:
         _fail(f"no head: no end joint hangs ahead of the withers {names[fore]!r}",
-              ("chains.head",), names, legs=chains)
+              (), names, legs=chains)
     tip = max(ahead, key=lambda j: (P[j, 2], -j))
     way = list(reversed(path_up(parents, tip)[:path_up(parents, tip).index(fore)]))
     named = [j for j in way if set(name_words(names[j])) & HEAD_WORDS]
