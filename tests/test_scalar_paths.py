@@ -183,9 +183,10 @@ def _reference_pose(ch, poser, plan):
     G, P = forward_kinematics(sk, L, plan["root"])
     err = np.zeros((T, 4))
     for i, geom in enumerate(poser.legs):
+        yaw = plan["heading"] + (plan["bend_yaw"] if i < 2 else 0.0)  # the fore feet's bend
         L[:, geom.chain], err[:, i] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
                                                 plan["feet"][:, i], plan["fold"][:, i],
-                                                plan["toe"][:, i])
+                                                plan["toe"][:, i], foot_yaw=yaw)
     _, P = forward_kinematics(sk, L, plan["root"])
     return L, P, err
 
