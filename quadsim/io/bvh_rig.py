@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadsim.errors import InputError
+from quadsim.errors import InputError, read_text_lines
 from quadsim.io.atomic import atomic_write
 from quadsim.io.bvh import _AXES, _CHANNELS, _parse_hierarchy, _Tokens
 from quadsim.io.guess import guess_units
@@ -52,17 +52,7 @@ def read_bvh_rig(path, feet=None) -> Rig:
         For a missing file or a malformed hierarchy (file and line named).
     """
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{path}: no such file") from None
-    except OSError as e:
-        raise InputError(f"{path}: cannot read the file ({e.strerror or e})") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    lines = re.split(r"\r\n|\r|\n", text)
+    lines = read_text_lines(path)
     tok = _Tokens(lines, str(path))
     if not any(s.strip() for s in lines):
         raise tok.error(1, "empty file, expected HIERARCHY")
