@@ -344,8 +344,11 @@ def save(motion, path, *, units: str = "m", character=None) -> Path:
     if units != "m" and ext != ".bvh":
         warnings.warn(f"{ext} files are always in metres; units {units!r} apply to .bvh "
                       "files only", UserWarning, stacklevel=2)
-    path.parent.mkdir(parents=True, exist_ok=True)
     model = model_of(character)
+    if units != "m" and ext == ".bvh" and model is not None:
+        warnings.warn(f"units {units!r} do not apply: the .bvh is written in the unit of "
+                      f"{character.id}'s own model ({model.name})", UserWarning, stacklevel=2)
+    path.parent.mkdir(parents=True, exist_ok=True)
     if model is not None and (ext == ".bvh" or (ext == ".glb"
                                                 and model.suffix.lower() != ".bvh")):
         from quadsim.io.adopt import write_for_character

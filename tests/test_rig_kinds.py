@@ -286,3 +286,21 @@ def test_a_gltf_rig_run_to_bvh_is_the_users_hierarchy_in_its_own_axes_and_unit(t
     for name in ("spine", "f_toe.L", "toe.R", "spine.006"):
         got = P[back.skeleton.names.index(name)] - [0.0, a.ground, 0.0]
         np.testing.assert_allclose(got, Q[dog.skeleton.names.index(name)], atol=2e-3)
+
+
+def test_asking_for_units_on_an_adopted_rigs_bvh_warns_that_they_do_not_apply(tmp_path):
+    """The .bvh of an adopted rig is in the model's own unit: ``units="cm"`` is not
+    silently dropped but said to be, and the file is the same as without it."""
+    import quadsim
+    from quadsim.io.adopt import adopt
+
+    kind = KINDS[0]
+    model = kind.write(kind.spec(), tmp_path)
+    char = tmp_path / "dog.toml"
+    char.write_text(adopt(model).character_toml("dog", model=model.name), encoding="utf-8")
+    dog = quadsim.load_character(char)
+    motion = quadsim.run(dog, gait="trot", seconds=0.5)
+    plain = quadsim.save(motion, tmp_path / "m.bvh", character=dog)
+    with pytest.warns(UserWarning, match="units 'cm' do not apply"):
+        asked = quadsim.save(motion, tmp_path / "cm.bvh", units="cm", character=dog)
+    assert asked.read_text() == plain.read_text()
