@@ -35,7 +35,8 @@ import numpy as np
 
 from ..skeleton.character import Character
 from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
-from .place_kernel import WORK_MATRICES, FixedTypeCall, place_row
+from ..kinematics.compiled import FixedEntry
+from .place_kernel import WORK_MATRICES, place_row
 from .turning import (
     GROUND_BAND,
     MAX_PITCH_LEAD,
@@ -105,7 +106,7 @@ class Placement:
                             float(centre), self.girdles[0], self.girdles[1])
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
-        self._place_row = FixedTypeCall(place_row)
+        self._place_row = FixedEntry(place_row)
         self._scratch = np.empty((skel.n_joints + WORK_MATRICES, 3, 3))
 
     @property
@@ -127,7 +128,7 @@ class Placement:
               yaw_prev: float, yaw_lead: float, ramps: np.ndarray) -> PlacedPose:
         """Place a clip-local pose (see :class:`~quadsim.horse.bundles.PlaceFrame` for
         the arguments; ``ramps`` the ground's ramp table); returns fresh output arrays."""
-        # every argument of the same types each frame (see FixedTypeCall)
+        # every argument of the same types each frame (see FixedEntry)
         local = np.ascontiguousarray(local, dtype=float)
         prev = local if first else np.ascontiguousarray(local_prev, dtype=float)
         frame = PlaceFrame(local, prev, np.ascontiguousarray(q, dtype=float),
