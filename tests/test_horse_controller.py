@@ -371,3 +371,31 @@ def test_transitions_between_all_gaits_hold_the_feet(horse, ctl, old):
         acc = angular_acceleration(m).max(axis=1)
         steady = max(acc[FPS // 2:tr[0] - 2].max(), acc[tr[-1] + 2:].max())
         assert acc[tr[0] - 2:tr[-1] + 2].max() < 3.0 * steady, (old, new)
+
+
+def test_the_compiled_calls_keep_one_signature_over_the_tour(horse, ctl):
+    """The placement and the looped clips' samplers call their kernels' entry points
+    directly (:class:`~quadsim.kinematics.compiled.FixedEntry`), which trusts the
+    arguments to keep the first call's types: over the shipped tour (standing, six
+    gaits, transitions, turns, slopes, a leap) every call has the same numba types."""
+    from numba import typeof
+
+    cfg = load_config(REPO / "configs" / "horse_data.toml")
+    c = HorseDataController(horse, ctl.db, dt=1 / 30)
+    seen = {}
+
+    def spy(name, call):
+        def wrapped(*args):
+            seen.setdefault(name, set()).add(tuple(typeof(a) for a in args))
+            return call(*args)
+        return wrapped
+
+    c.placement._place_row = spy("place_row", c.placement._place_row)
+    c.player._sample_row = spy("sample_row", c.player._sample_row)
+    c.player._stance_row = spy("stance_row", c.player._stance_row)
+    labels = set()
+    for i in range(int(cfg.duration * 30)):
+        labels.add(c.step(cfg.commands.command_at(i / 30)).gait)
+    assert {"stand", "leap", "walk->amble"} <= labels
+    assert set(seen) == {"place_row", "sample_row", "stance_row"}
+    assert {k: len(v) for k, v in seen.items()} == {k: 1 for k in seen}

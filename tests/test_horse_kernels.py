@@ -30,13 +30,13 @@ from quadsim.horse.controller import HorseDataController
 from quadsim.horse.database import sample_motion
 from quadsim.horse.legs import two_bone
 from quadsim.horse.place_kernel import (
-    FixedTypeCall,
     ground_height,
     ground_heights,
     sample_row,
     stance_row,
 )
 from quadsim.kinematics.chains import fk_row, two_bone_row
+from quadsim.kinematics.compiled import FixedEntry
 from quadsim.horse.root import clip_stance_cycles, in_stance
 from quadsim.horse.slope import Ground
 from quadsim.skeleton.fk import forward_kinematics
@@ -138,14 +138,23 @@ def test_sample_row_matches_the_slerp_formula(horse, db):
     np.testing.assert_allclose(got_q, want_q, atol=1e-12)
 
 
-def test_fixed_type_call_dispatches_once_then_calls_the_compiled_code():
+def test_fixed_entry_dispatches_once_then_calls_the_compiled_code():
     g = Ground()
     g.add_ramp([0.0, 1.0], 0.3, math.radians(6.0))
     xz = np.random.default_rng(6).uniform(-3.0, 5.0, size=(50, 2))
-    call = FixedTypeCall(ground_heights)
+    call = FixedEntry(ground_heights)
     first, again = np.empty(50), np.empty(50)
     call(g.table, xz, first)
     assert call._entry is not None                  # bound to the compiled signature
     call(g.table, xz, again)
     np.testing.assert_array_equal(again, first)
     np.testing.assert_allclose(first, ramp_height_reference(g.table, xz), atol=1e-12)
+
+
+def test_fixed_entry_of_an_uncompiled_function_calls_it_as_it_is():
+    """Without a compiled signature (``NUMBA_DISABLE_JIT``: a plain function) every call
+    goes through the function itself."""
+    calls = []
+    call = FixedEntry(lambda *a: calls.append(a) or len(calls))
+    assert call(1, 2) == 1 and call(3) == 2 and call._entry is None
+    assert calls == [(1, 2), (3,)]

@@ -85,7 +85,9 @@ MAX_GAIT_KEYS = 9
 
 
 def _smooth(x: float) -> float:
-    x = min(max(x, 0.0), 1.0)
+    if x <= 0.0:                # moving (the usual case): the same 0.0, sooner
+        return 0.0
+    x = min(x, 1.0)
     return x * x * (3.0 - 2.0 * x)
 
 
@@ -325,9 +327,11 @@ class HorseDataController:
         if self.clip is None and dt is not None and not dt > 0:
             dt = None
         out = self._advance(command, dt)
-        return Frame(self.character.skeleton, self.time, out.root, out.local_rotations,
-                     out.positions, self.heading, self._label, out.contacts, self.speed,
-                     {"pitch": np.float64(self.pitch), "ground": out.ground})
+        # the placement's output arrays are this frame's own (fresh each step)
+        return Frame.owned(self.character.skeleton, self.time, out.root, out.local_rotations,
+                           out.positions, float(self.steering.yaw), self._label, out.contacts,
+                           self.speed, {"pitch": np.array(float(self.placement.state.pitch[0])),
+                                        "ground": out.ground})
 
     def _advance(self, command: Command, dt: float | None):
         """One frame: the mode logic, then the placement; returns the

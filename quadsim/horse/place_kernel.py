@@ -201,40 +201,6 @@ def pack_contacts(stance_cycles) -> tuple[np.ndarray, np.ndarray]:
     return on_off, count
 
 
-class FixedTypeCall:
-    """A compiled kernel called again and again with arguments of the same types, without
-    numba's per-call type dispatch.
-
-    numba types every argument on every call; for :func:`place_row`'s nested bundles
-    (about fifty arrays and scalars) that costs as much as the kernel's own work. The
-    first call goes through the dispatcher (compiling or loading the cached machine
-    code); later calls go straight to the compiled entry point of that signature.
-    The caller must pass arguments of the first call's types (dtype, dimensions,
-    layout) every time -- the controller builds them that way -- since the entry
-    point does not check them.
-
-    Parameters
-    ----------
-    kernel : numba dispatcher
-    """
-
-    def __init__(self, kernel):
-        self.kernel = kernel
-        self._entry = None
-
-    def __deepcopy__(self, memo):
-        return self             # holds no per-call state: copies of a controller share it
-
-    def __call__(self, *args):
-        if self._entry is not None:
-            return self._entry(*args)
-        result = self.kernel(*args)
-        sig = tuple(self.kernel.typeof_pyval(a) for a in args)
-        overload = getattr(self.kernel, "overloads", {}).get(sig)
-        self._entry = getattr(overload, "entry_point", None)
-        return result
-
-
 # ------------------------------------------------------------------ the placement
 @njit(cache=True)
 def place_row(frame, rig, tuning, state, ramps, out):
@@ -561,7 +527,6 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["CONTACT_SLACK", "FixedTypeCall", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
-           "contact_rows",
-           "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
+__all__ = ["CONTACT_SLACK", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
+           "contact_rows", "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
            "sample_row", "sample_rows", "slerp_into", "stance_row"]

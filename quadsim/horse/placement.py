@@ -35,7 +35,8 @@ import numpy as np
 
 from ..skeleton.character import Character
 from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
-from .place_kernel import WORK_MATRICES, FixedTypeCall, place_row
+from ..kinematics.compiled import FixedEntry
+from .place_kernel import WORK_MATRICES, place_row
 from .turning import (
     GROUND_BAND,
     MAX_PITCH_LEAD,
@@ -105,8 +106,9 @@ class Placement:
                             float(centre), self.girdles[0], self.girdles[1])
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
-        self._place_row = FixedTypeCall(place_row)
+        self._place_row = FixedEntry(place_row)
         self._scratch = np.empty((skel.n_joints + WORK_MATRICES, 3, 3))
+        self._n_joints = skel.n_joints
 
     @property
     def pitch(self) -> float:
@@ -126,18 +128,22 @@ class Placement:
     def place(self, local, local_prev, q, contacts, first: bool, dt: float, yaw: float,
               yaw_prev: float, yaw_lead: float, ramps: np.ndarray) -> PlacedPose:
         """Place a clip-local pose (see :class:`~quadsim.horse.bundles.PlaceFrame` for
-        the arguments; ``ramps`` the ground's ramp table); returns fresh output arrays."""
-        # every argument of the same types each frame (see FixedTypeCall)
-        local = np.ascontiguousarray(local, dtype=float)
-        prev = local if first else np.ascontiguousarray(local_prev, dtype=float)
-        frame = PlaceFrame(local, prev, np.ascontiguousarray(q, dtype=float),
-                           np.ascontiguousarray(contacts, dtype=np.bool_), bool(first),
-                           float(dt), float(yaw), float(yaw_prev), float(yaw_lead))
-        J = len(q)
-        out = PlacedPose(np.empty((J, 3, 3)), np.empty((J, 4)), np.empty((J, 3)), np.empty(3),
-                         np.empty(4, dtype=np.bool_), np.empty(4), self._scratch)
-        self._place_row(frame, self.rig, TUNING, self.state,
-                        np.ascontiguousarray(ramps, dtype=float), out)
+        the arguments; ``ramps`` the ground's ramp table); returns fresh output arrays.
+
+        The compiled kernel is called through its entry point (:class:`FixedEntry`):
+        the arguments must have the same types every frame -- C-contiguous float64
+        arrays ``local``, ``local_prev`` (3,), ``q`` (J, 4) and ``ramps`` (R, 6), a
+        C-contiguous bool array ``contacts`` (4,), a bool ``first`` and floats -- as
+        :class:`~quadsim.horse.controller.HorseDataController` passes them
+        (``tests/test_horse_controller.py`` checks it over a tour of every mode).
+        """
+        J = self._n_joints
+        empty = np.empty
+        out = PlacedPose(empty((J, 3, 3)), empty((J, 4)), empty((J, 3)), empty(3),
+                         empty(4, dtype=np.bool_), empty(4), self._scratch)
+        self._place_row(PlaceFrame(local, local if first else local_prev, q, contacts, first,
+                                   dt, yaw, yaw_prev, yaw_lead),
+                        self.rig, TUNING, self.state, ramps, out)
         return out
 
 

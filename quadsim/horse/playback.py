@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError
+from ..kinematics.compiled import FixedEntry
 from ..skeleton.character import Character
 from ..skeleton.contacts import foot_contacts
 from ..skeleton.motion import Motion
@@ -124,9 +125,13 @@ class ClipPlayer:
         self._ranges = {g: (c[0].speed * SPEED_REACH[0], c[-1].speed * SPEED_REACH[1])
                         for g, c in self._clips.items()}
         self._cache: dict = {}
+        self._last_expanded = (None, None, None)   # (gait, speed, clip) of the last ask
         self._stance: dict = {}
         self._packed: dict = {}
         self._n_joints = character.skeleton.n_joints
+        # the looped clips' samplers take arrays of one set of types (see _Packed)
+        self._sample_row = FixedEntry(sample_row)
+        self._stance_row = FixedEntry(stance_row)
 
     # ------------------------------------------------------------ gaits and speeds
     def gaits(self) -> list[str]:
@@ -176,7 +181,11 @@ class ClipPlayer:
     def expanded(self, gait: str, speed: float) -> Clip:
         """The gait's nearest clip expanded to ``speed`` (clamped to :meth:`speed_range`,
         quantised to :data:`SPEED_STEP`, cached)."""
+        last = self._last_expanded            # asked again and again for the same
+        if last[0] == gait and last[1] == speed:
+            return last[2]
         lo, hi = self.speed_range(gait)
+        speed_asked = speed
         speed = min(max(float(speed), lo), hi)
         q = round(math.log(speed) / math.log1p(SPEED_STEP))
         key = (gait, q)
@@ -185,7 +194,9 @@ class ClipPlayer:
             base = self.db.nearest(gait, v)
             anchor = "clip" if gait in CLIP_ANCHORED or gait not in HOYT else "law"
             self._cache[key] = expand(base, self.character, v, anchor=anchor)
-        return self._cache[key]
+        clip = self._cache[key]
+        self._last_expanded = (gait, speed_asked, clip)
+        return clip
 
     def stance_time(self, clip: Clip) -> float:
         """Mean contact time of a clip's feet (s)."""
@@ -207,10 +218,10 @@ class ClipPlayer:
         pk = self._pack(clip)
         f = (phase % 1.0) * clip.frames
         fl = math.floor(f)
+        i = int(fl) % clip.frames
         root = np.empty(3)
         q = np.empty((self._n_joints, 4))
-        sample_row(pk.root, pk.rot, int(fl) % clip.frames, int(fl) % clip.frames + 1, f - fl,
-                   root, q)
+        self._sample_row(pk.root, pk.rot, i, i + 1, float(f - fl), root, q)
         root[2] += math.floor(phase) * clip.speed * clip.period
         return root, q
 
@@ -226,7 +237,7 @@ class ClipPlayer:
         """
         pk = self._pack(clip)
         st = np.empty(4, dtype=bool)
-        stance_row(pk.on_off, pk.count, clip.frames, phase, st)
+        self._stance_row(pk.on_off, pk.count, int(clip.frames), float(phase), st)
         return st
 
     def sample(self, motion: Motion, f: float) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,10 @@ of threads; no threaded (``parallel=True``) variant of a kernel is compiled.
 The number of threads is numba's (:func:`numba.get_num_threads`, set with
 ``NUMBA_NUM_THREADS`` or :func:`numba.set_num_threads`).
 
-:class:`FixedEntry` calls a kernel's compiled entry point directly, for
-arguments whose types never change: finding the types of a call of bundles
-of some thirty arrays (numba's dispatch) costs more than a one-row step.
+:class:`FixedEntry` (:mod:`quadsim.kinematics.compiled`, shared with the
+horse) calls a kernel's compiled entry point directly, for arguments whose
+types never change: finding the types of a call of bundles of some thirty
+arrays (numba's dispatch) costs more than a one-row step.
 """
 
 from __future__ import annotations
@@ -20,6 +21,10 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 
 from numba import get_num_threads
+
+from quadsim.kinematics.compiled import FixedEntry
+
+__all__ = ["FixedEntry", "run_blocks"]
 
 _POOL: ThreadPoolExecutor | None = None
 
@@ -42,30 +47,3 @@ def run_blocks(task, n: int) -> None:
     futures = [_pool().submit(task, a, min(n, a + size)) for a in range(0, n, size)]
     for f in futures:
         f.result()
-
-
-class FixedEntry:
-    """``kernel(*args)`` for arguments of types that never change.
-
-    The first call goes through numba's dispatcher (compiling or loading the
-    kernel) and notes the argument types; later calls go straight to the
-    compiled entry point. The caller's promise: the same types every call
-    (same dtypes, dimensions, layouts, writeability and bundle classes).
-    """
-
-    def __init__(self, kernel):
-        self.kernel = kernel
-        self._entry = None
-
-    def __deepcopy__(self, memo):  # shareable: it holds no state of its caller
-        return self
-
-    def __call__(self, *args):
-        entry = self._entry
-        if entry is not None:
-            return entry(*args)
-        from numba import typeof
-
-        out = self.kernel(*args)
-        self._entry = self.kernel.overloads[tuple(typeof(a) for a in args)].entry_point
-        return out
