@@ -51,11 +51,14 @@ class FixedEntry:
     kernel) and notes the argument types; later calls go straight to the
     compiled entry point. The caller's promise: the same types every call
     (same dtypes, dimensions, layouts, writeability and bundle classes).
+    ``before_first``, if given, is called (without arguments) before the
+    first call only.
     """
 
-    def __init__(self, kernel):
+    def __init__(self, kernel, before_first=None):
         self.kernel = kernel
         self._entry = None
+        self._before_first = before_first
 
     def __deepcopy__(self, memo):  # shareable: it holds no state of its caller
         return self
@@ -66,6 +69,8 @@ class FixedEntry:
             return entry(*args)
         from numba import typeof
 
+        if self._before_first is not None:
+            self._before_first()
         out = self.kernel(*args)
         self._entry = self.kernel.overloads[tuple(typeof(a) for a in args)].entry_point
         return out
