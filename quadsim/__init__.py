@@ -19,11 +19,21 @@ Conventions (see ``quadsim.frames``): SI units, right-handed world frame with
 quaternions stored as (w, x, y, z).
 """
 
-from quadsim.api import make_controller, resolve, run, save, simulate
-from quadsim.commands import Command, Script
-from quadsim.controller import Controller, Frame
-from quadsim.errors import InputError, QuadsimClampWarning
-from quadsim.skeleton import Character, Motion, Skeleton, list_characters, load_character
+from quadsim import _kernel_cache
+
+_kernel_cache.install()  # before any kernel is defined: cached kernels keyed by all kernel sources
+
+from quadsim.api import make_controller, resolve, run, save, simulate  # noqa: E402
+from quadsim.commands import Command, Script  # noqa: E402
+from quadsim.controller import Controller, Frame  # noqa: E402
+from quadsim.errors import InputError, QuadsimClampWarning  # noqa: E402
+from quadsim.skeleton import (  # noqa: E402
+    Character,
+    Motion,
+    Skeleton,
+    list_characters,
+    load_character,
+)
 
 __all__ = ["Character", "Command", "Controller", "Frame", "InputError", "Motion",
            "QuadsimClampWarning", "Script", "Skeleton", "list_characters", "load_character",

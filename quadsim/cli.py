@@ -66,12 +66,14 @@ def _resolve(args, source: str, **overrides):
 
 def cmd_run(args) -> int:
     from quadsim.api import run_reporting, save
+    from quadsim.locomotion.precompile import start_for
 
     config = _resolve(args, args.source, mode=args.mode, seconds=args.seconds, fps=args.fps,
                       units=args.units, speed=args.speed, gait=args.gait,
                       turn_rate_deg_s=args.turn_rate)
     out = Path(args.out) if args.out is not None else Path("out") / f"{Path(args.source).stem}.bvh"
     _check_out(out)
+    start_for(config.mode)  # an empty cache: the plan compiles in a second process meanwhile
     character = config.load_character()
     motion = run_reporting(config, _report_warning)
     with warnings.catch_warnings(record=True) as caught:

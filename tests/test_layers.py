@@ -16,7 +16,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "quadsim"
 
 #: Layers from the bottom: a module may import its own layer and those below.
 LAYERS = [
-    ("quadsim.frames", "quadsim.errors", "quadsim._optional"),
+    ("quadsim.frames", "quadsim.errors", "quadsim._optional", "quadsim._kernel_cache"),
     ("quadsim.kinematics.rotations", "quadsim.kinematics.chains", "quadsim.kinematics"),
     ("quadsim.skeleton", "quadsim.commands"),
     ("quadsim.controller", "quadsim.kinematics.ik", "quadsim.mesh"),

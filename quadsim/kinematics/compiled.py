@@ -29,11 +29,14 @@ class FixedEntry:
     ----------
     kernel : numba dispatcher
         A ``@njit`` function.
+    before_first : callable, optional
+        Called (without arguments) before the first call only.
     """
 
-    def __init__(self, kernel):
+    def __init__(self, kernel, before_first=None):
         self.kernel = kernel
         self._entry = None
+        self._before_first = before_first
 
     def __deepcopy__(self, memo):  # shareable: it holds no state of its caller
         return self
@@ -42,6 +45,9 @@ class FixedEntry:
         entry = self._entry
         if entry is not None:
             return entry(*args)
+        if self._before_first is not None:
+            first, self._before_first = self._before_first, None
+            first()
         out = self.kernel(*args)
         overloads = getattr(self.kernel, "overloads", None)
         if overloads:

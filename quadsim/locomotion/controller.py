@@ -37,6 +37,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from functools import partial
 
 import numpy as np
 
@@ -57,6 +58,7 @@ from quadsim.locomotion.plan_kernels import (
     step_constants,
 )
 from quadsim.locomotion.pose_kernel import plan_columns
+from quadsim.locomotion.precompile import while_plan_compiles
 from quadsim.locomotion.rowmath import interp1
 from quadsim.locomotion.tables import character_plan
 from quadsim.locomotion.transition import GaitParams
@@ -170,7 +172,10 @@ class ProceduralController:
                                 np.zeros(1, dtype=np.int64))
         self._gait_ids: dict[str, tuple[str, int]] = {}
         self._warned: set[tuple] = set()
-        self._runner = FixedEntry(plan_rows)
+        # on an empty cache the CLI may compile the plan in a second process: the
+        # first step then compiles the posing meanwhile, and loads the plan
+        self._runner = FixedEntry(plan_rows, before_first=partial(
+            while_plan_compiles, self.poser, self._packed_columns))
         # the outputs of a step, reused: every reader copies what it keeps
         self._outs = {False: plan_outputs(1), True: plan_outputs(1, self._packed_columns)}
         self._label = self._current_label()

@@ -39,7 +39,6 @@ from quadsim.locomotion.body import body_rows
 from quadsim.locomotion.bundles import (
     PlanOutputs,
     StepConstants,
-    gait_rows,
     plan_outputs,
     step_scratch,
     take_rows,
@@ -69,7 +68,7 @@ from quadsim.locomotion.rowmath import (
     room_row,
     stride_length,
 )
-from quadsim.locomotion.transition import advance_schedule, auto_choice, target_into
+from quadsim.locomotion.transition import advance_schedule, auto_choice, duty_at
 from quadsim.locomotion.turning import HEADING_GAIN, steer_rate
 
 #: A requested gait is held up to this factor above the top of its speed range.
@@ -232,7 +231,7 @@ def schedule_rows(cmd, body, gaits, sc, state):
         else:
             wanted[n] = choice
         period[n] = 1.0 / max(freq[n], MIN_FREQ)
-    advance_schedule(gaits, kind, sch, wanted, speed, sc.dt, period, stand, gait_rows(1))
+    advance_schedule(gaits, kind, sch, wanted, speed, sc.dt, period, stand)
 
 
 @inner
@@ -289,7 +288,6 @@ def path_rows(body, gaits, reach, sc, state, scratch):
     worst leg's half sweep."""
     mo, p = state.motion, state.schedule.params
     room = np.empty(4)
-    one = gait_rows(1)
     dt = sc.dt
     kind, current = body.kind, state.schedule.current
     for n in range(mo.speed.shape[0]):
@@ -307,8 +305,9 @@ def path_rows(body, gaits, reach, sc, state, scratch):
         mo.bend[n] += (bt - mo.bend[n]) * sc.a_bend
         keys_row(mo.root_xz, mo.heading[n], mo.bend[n], body.hind_z[n], body.body_length[n],
                  scratch.keys, scratch.key_heading, n)
-        target_into(gaits, kind[n], current[n], v, one, 0)
-        scratch.final_duty[n] = one.duty[0]
+        g = current[n]
+        scratch.final_duty[n] = duty_at(gaits.speed_lo[kind[n], g], gaits.speed_hi[kind[n], g],
+                                        gaits.duty_lo[kind[n], g], gaits.duty_hi[kind[n], g], v)
         pd = p.drop[n] + sc.vault
         dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
         base = interp_row(max(pd, dmax), reach.drops, reach.sweep_min, n)

@@ -50,15 +50,22 @@ def _frac(x):
     return x - math.floor(x)
 
 
+@inner
+def duty_at(lo, hi, d0, d1, speed):
+    """The duty factor at ``speed`` (m/s) of a gait of speed range ``lo..hi``
+    and duty factors ``d0..d1``: linear over the range, held outside it."""
+    s = min(max((speed - lo) / (hi - lo), 0.0), 1.0)
+    return d0 + s * (d1 - d0)
+
+
 @njit(inline="always")  # a bundle passed per row costs more than the body
 def target_into(tables, k, g, speed, out, m):
     """``GaitParams.of`` gait ``g`` of kind ``k`` at ``speed`` (m/s) into row
     ``m`` of ``out`` (:class:`~quadsim.locomotion.bundles.GaitRows`): the
     duty factor linear over the gait's speed range, the rest as tabled."""
-    lo, hi = tables.speed_lo[k, g], tables.speed_hi[k, g]
-    d0, d1 = tables.duty_lo[k, g], tables.duty_hi[k, g]
-    s = min(max((speed - lo) / (hi - lo), 0.0), 1.0)
-    out.duty[m] = d0 + s * (d1 - d0)
+    lo = tables.speed_lo[k, g]
+    out.duty[m] = duty_at(tables.speed_lo[k, g], tables.speed_hi[k, g], tables.duty_lo[k, g],
+                          tables.duty_hi[k, g], speed)
     for i in range(4):
         out.phases[m, i] = tables.phases[k, g, i]
     out.stride_coefficient[m] = tables.stride_coefficient[k, g]
@@ -119,7 +126,7 @@ def auto_choice(tables, k, current, speed, hysteresis):
 
 
 @inner
-def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scratch):
+def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand):
     """One step of every row ``n`` of the scheduler ``sched``: the running
     transition advances by ``dt`` (s); if ``wanted[n]`` differs from the
     current gait a transition to it starts from the parameters now (lasting
@@ -127,33 +134,35 @@ def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand, scr
     :data:`TRANSITION_STRIDES` stride periods ``period[n]`` s, within
     [:data:`MIN_TRANSITION_TIME`, :data:`MAX_TRANSITION_TIME`]); then the
     parameters at ``speed[n]`` (m/s) go into ``sched.params[n]``. ``kinds``
-    (N,) index ``tables``; ``scratch`` is a one-row
-    :class:`~quadsim.locomotion.bundles.GaitRows`.
+    (N,) index ``tables``.
     """
     current, source_name, in_transition = sched.current, sched.source_name, sched.in_transition
     elapsed, duration, source, params = sched.elapsed, sched.duration, sched.source, \
         sched.params
     for n in range(current.shape[0]):
         k = kinds[n]
-        cur = current[n]
         v = speed[n]
         if in_transition[n]:
             elapsed[n] += dt
             if elapsed[n] >= duration[n]:
                 in_transition[n] = False
-        w = wanted[n]
-        if w != cur:
-            scheduled_into(tables, k, cur, in_transition[n], elapsed[n], duration[n], source, n,
-                           v, scratch, 0)
-            _copy_row(scratch, 0, source, n)
-            source_name[n] = cur
-            current[n] = w
-            in_transition[n] = True
-            elapsed[n] = 0.0
-            duration[n] = STAND_TRANSITION_TIME if cur == stand else min(
-                max(TRANSITION_STRIDES * period[n], MIN_TRANSITION_TIME), MAX_TRANSITION_TIME)
-        scheduled_into(tables, k, current[n], in_transition[n], elapsed[n], duration[n], source,
-                       n, v, params, n)
+        starts = wanted[n] != current[n]
+        # one call site of the inlined blend (each is typed and lowered again):
+        # when a transition starts, the first pass finds the parameters now --
+        # its start, copied to ``source`` -- the second those of this step
+        for j in range(2 if starts else 1):
+            scheduled_into(tables, k, current[n], in_transition[n], elapsed[n], duration[n],
+                           source, n, v, params, n)
+            if starts and j == 0:
+                cur = current[n]
+                _copy_row(params, n, source, n)
+                source_name[n] = cur
+                current[n] = wanted[n]
+                in_transition[n] = True
+                elapsed[n] = 0.0
+                duration[n] = STAND_TRANSITION_TIME if cur == stand else min(
+                    max(TRANSITION_STRIDES * period[n], MIN_TRANSITION_TIME),
+                    MAX_TRANSITION_TIME)
 
 
 @njit(inline="always")  # a bundle passed per row costs more than the body
@@ -170,9 +179,9 @@ def _copy_row(src, n, out, m):
 
 
 @njit(cache=True)
-def _scheduler_step(tables, sched, wanted, speed, dt, period, stand, scratch):
+def _scheduler_step(tables, sched, wanted, speed, dt, period, stand):
     advance_schedule(tables, np.zeros(1, dtype=np.int64), sched, np.array([wanted]),
-                     np.array([speed]), dt, np.array([period]), stand, scratch)
+                     np.array([speed]), dt, np.array([period]), stand)
 
 
 @njit(cache=True)
@@ -322,7 +331,6 @@ class GaitScheduler:
         self.state = ScheduleState(np.array([g], dtype=np.int64), np.array([g], dtype=np.int64),
                                    np.zeros(1, dtype=bool), np.zeros(1), np.zeros(1),
                                    new_gait_rows(1), new_gait_rows(1))
-        self._scratch = new_gait_rows(1)
 
     current = property(lambda self: self.names[self.state.current[0]],
                        doc="The gait run, or entered by the transition.")
@@ -348,5 +356,5 @@ class GaitScheduler:
         of standing. Returns the parameters to use for this step.
         """
         _scheduler_step(self.tables, self.state, self.names.index(wanted), float(speed),
-                        float(dt), float(stride_period), self._stand, self._scratch)
+                        float(dt), float(stride_period), self._stand)
         return GaitParams.from_rows(self.state.params, 0)
