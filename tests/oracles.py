@@ -116,7 +116,7 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
     vd, vf = cd - qd, cf - qf
     r_true = np.hypot(vd, vf)
     # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
-    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), l1 + l2 - 1e-6)
+    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), 0.998 * (l1 + l2) - 1e-6)
     gam = np.arctan2(vf, vd)
     cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
@@ -172,7 +172,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     down_t = -(d[..., 1] * ca - d[..., 0] * sa)  # -(y') with y' = -x sin a + y cos a
     fwd_t = d[..., 2]
     # world down in the leg plane
-    g = np.broadcast_to(RpT[..., 1, :] * -1.0, batch + (3,))  # R^T (0,-1,0)
+    g = np.broadcast_to(Rp[..., 1, :] * -1.0, batch + (3,))  # R^T (0,-1,0) = -R[1, :]
     gy = -g[..., 0] * sa + g[..., 1] * ca
     phi_down = np.arctan2(g[..., 2], -gy)
 

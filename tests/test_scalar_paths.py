@@ -101,7 +101,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     liftoff = rng.normal(0, 1, (n, 4, 3))
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
-                                                   liftoff)))
+                                                   liftoff, liftoff)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -109,7 +109,8 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
         B.CpgState(theta.copy(), z4, z, z, freq.copy()),
         B.ScheduleState(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, bool), z, z,
                         params, params),
-        feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2))))
+        feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2)),
+                                np.zeros((n, 2)), np.zeros((n, 2)), z.copy()))
     scratch = B.StepScratch(z, z, z4, theta - 0.1, keys, kh, final, np.zeros((n, 4), bool), half)
     reach = B.ReachTables(np.zeros(2), np.zeros((n, 2, 4)), np.zeros((n, 2)),
                           np.zeros((n, 4, 2)), offset)

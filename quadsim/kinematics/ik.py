@@ -43,6 +43,10 @@ from quadsim.skeleton.character import Character, LegSpec
 #: The two-bone pair is never quite straight nor quite folded: its span
 #: stays this far (m) inside ``[|l1 - l2|, l1 + l2]`` (no singular bend).
 PAIR_SLACK = 1e-6
+#: ... and never longer than this fraction of ``l1 + l2``: an elbow or knee
+#: keeps about 7 degrees of bend (a locked straight leg reads as a prop, and
+#: snaps when it bends again); a target beyond is missed (``reached``).
+PAIR_REACH = 0.998
 #: A post joint with no limits in the character file folds within these (rad).
 DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
 #: Largest fold of a post bone (rad).
@@ -208,7 +212,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     vd = cd - qd
     vf = cf - qf
     r_true = math.sqrt(vd * vd + vf * vf)
-    r = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), l1 + l2 - PAIR_SLACK)
+    r = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), PAIR_REACH * (l1 + l2) - PAIR_SLACK)
     cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
     cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
@@ -240,9 +244,14 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
     """The legs' IK, compiled: each leg of ``legs`` (:func:`pack_legs`) in
     rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
     and position ``positions[t, p]`` (m), to the target, swing fold and toe
-    pitch in the columns ``cols = [target, fold, toe]`` (int array) of ``plan[t]`` (leg
-    ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``): writes the chains'
-    local rotations ``local[t, j]`` and the misses ``err[t, i]`` (m).
+    pitch in the columns ``cols = [target, fold, toe, heading, bend]`` (int array)
+    of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``):
+    writes the chains' local rotations ``local[t, j]`` and the misses
+    ``err[t, i]`` (m). If ``heading >= 0`` each foot keeps its world yaw
+    at the body's heading (the fore feet's plus the spine's yaw ``bend``)
+    whatever the yaw of its leg's plane (the girdles' sway): a foot turns
+    about the vertical through its joint, the foot joint's local rotation
+    then ``R_x(flexion) @ R_y(yaw)``, so a planted foot's toe stays put.
 
     The bones' in-plane angles ``phi`` are carried with their cosines and
     sines, from which the pair (:func:`_solve_pair`) and the local rotations
@@ -251,7 +260,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
     a pass that does (the joint limits rarely bind in a stride).
     """
     leg_int, leg_top, leg_bones, leg_scal = legs
-    FEET, FOLD, TOE = cols[0], cols[1], cols[2]
+    FEET, FOLD, TOE, HEAD, BEND = cols[0], cols[1], cols[2], cols[3], cols[4]
     n_max = leg_bones.shape[2]
     phi = np.empty(n_max)
     cphi = np.empty(n_max)
@@ -289,9 +298,10 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
                 ca, sa = math.cos(ab), math.sin(ab)
             down_t = -(d1 * ca - d0 * sa)
             fwd_t = d2
-            # world down in the leg plane
-            gy = -(G[g, p, 0, 1] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
-            phi_down = math.atan2(G[g, p, 2, 1] * -1.0, -gy)
+            # world down in the parent's frame is G^T (0, -1, 0) = -G[1, :];
+            # its angle in the leg plane
+            gy = -(G[g, p, 1, 0] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
+            phi_down = math.atan2(G[g, p, 1, 2] * -1.0, -gy)
             swing = math.atan2(fwd_t, down_t) - rest_leg
             qd = 0.0
             qf = 0.0
@@ -363,6 +373,20 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
                     local[t, j, 1, 0] = sa
                     local[t, j, 1, 1] = ca * cb
                     local[t, j, 1, 2] = -ca * sb
+                elif k == n and HEAD >= 0:  # R_x(rel) @ R_y(yaw): the foot's yaw held
+                    want = plan[t, HEAD] + (plan[t, BEND] if i < 2 else 0.0)
+                    dy = want - math.atan2(G[g, p, 0, 2], G[g, p, 2, 2])
+                    cy, sy = math.cos(dy), math.sin(dy)
+                    local[t, j, 0, 0] = cy
+                    local[t, j, 0, 1] = 0.0
+                    local[t, j, 0, 2] = sy
+                    local[t, j, 1, 0] = sb * sy
+                    local[t, j, 1, 1] = cb
+                    local[t, j, 1, 2] = -sb * cy
+                    local[t, j, 2, 0] = -cb * sy
+                    local[t, j, 2, 1] = sb
+                    local[t, j, 2, 2] = cb * cy
+                    continue
                 else:
                     local[t, j, 0, 0] = 1.0
                     local[t, j, 0, 1] = 0.0
@@ -431,6 +455,6 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
 
 @njit(cache=True)
 def _solve_rows(plan, legs, G, P, local, err):
-    leg_rows(plan, np.array([0, 3, 4]), np.int64(0), plan.shape[0], legs, G, P, local, err)
+    leg_rows(plan, np.array([0, 3, 4, -1, -1]), np.int64(0), plan.shape[0], legs, G, P, local, err)
 
 

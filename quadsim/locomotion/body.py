@@ -14,7 +14,9 @@ import math
 
 import numpy as np
 
-from quadsim.locomotion.rowmath import ahead_of_mid, inner, interp_leg
+from quadsim.frames import GRAVITY
+from quadsim.locomotion.cpg import TWO_PI
+from quadsim.locomotion.rowmath import ahead_of_mid, frac, inner, interp_leg
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -39,6 +41,32 @@ TAIL_YAW_FROM_SWAY = -0.5
 MIN_STANCE_WIDTH = 1e-3
 #: Least duty factor the support measure divides by.
 MIN_DUTY = 1e-3
+#: The trunk's vertical motion: its centre is a mass the legs hold up. A
+#: stance leg pushes with a half sine over its stance whose impulse carries a
+#: quarter of the weight over a stride (``g T / 4``), the centre falls at
+#: ``g`` while no foot is down -- every flight is ballistic -- and, only while
+#: a foot is down, a weak spring and damper (natural frequency this fraction
+#: of the stride frequency, damping ratio below) keep it about its standing
+#: height.
+HEAVE_HOLD_PER_STRIDE = 0.35
+HEAVE_DAMPING = 0.8
+#: The centre's rise is at most this fraction of the hip height either way.
+MAX_HEAVE = 0.2
+#: The trunk's pitch: the fore legs' pushes lift the nose and the hind legs'
+#: the tail, this much per m/s^2 of push over the body length (rad/s^2 per
+#: (m/s^2 / m)); a spring and damper (natural frequency this fraction of the
+#: stride frequency, damping ratio below) return it to level. The
+#: diagonal pairs of the trot push fore and hind alike and barely rock it;
+#: the canter and gallops, fore and hind in turn, rock it nose-up and
+#: nose-down.
+PITCH_TORQUE = 1.5
+PITCH_HOLD_PER_STRIDE = 0.6
+PITCH_DAMPING = 0.5
+#: The rocking is at most this (rad) either way.
+MAX_ROCK = 0.35
+#: In the flexing gaits (walk, trot, pace) the trunk also pitches by this
+#: fraction of the spine's compress/stretch angle.
+PITCH_FROM_FLEX = 0.2
 
 
 @inner
@@ -87,7 +115,36 @@ def body_rows(body, state, scratch, reach, sc, out):
             if stance[n, i]:
                 support += math.sin(math.pi * min(max(u[n, i] / sdut, 0.0), 1.0))
         drop = params.drop[n]
-        bob = BOB_FRACTION * drop * body.hip_height[n] * (0.5 - support / 4)
+        h = body.hip_height[n]
+        bob = BOB_FRACTION * drop * h * (0.5 - support / 4) * (1.0 - bound)
+        # the trunk's centre, pushed up by the legs' stances and falling at g
+        # when free, and its rocking. A leg's push over the step is the
+        # integral of its half sine between the stride fractions before and
+        # after the step (exact, however few frames a stance spans).
+        f = state.cpg.freq[n]
+        dv_leg = GRAVITY / (8.0 * f)
+        z, w = bs.heave, bs.heave_rate
+        dv = -GRAVITY * dt
+        fore_hind = 0.0
+        held = False
+        for i in range(4):
+            held = held or stance[n, i]
+            u1 = u[n, i]
+            u0 = frac(scratch.theta_prev[n, i] / TWO_PI)
+            c0 = math.cos(math.pi * min(u0 / sdut, 1.0))
+            c1 = math.cos(math.pi * min(u1 / sdut, 1.0))
+            push = dv_leg * (c0 - c1 if u0 <= u1 else c0 + 2.0 - c1)  # wrapped: a touchdown
+            dv += push
+            fore_hind += push if i < 2 else -push
+        if held:
+            wn = 2.0 * math.pi * HEAVE_HOLD_PER_STRIDE * f
+            dv -= (wn * wn * z[n, 0] + 2.0 * HEAVE_DAMPING * wn * w[n, 0]) * dt
+        w[n, 0] += dv
+        z[n, 0] = min(max(z[n, 0] + w[n, 0] * dt, -MAX_HEAVE * h), MAX_HEAVE * h)
+        wp = 2.0 * math.pi * PITCH_HOLD_PER_STRIDE * f
+        w[n, 1] += (PITCH_TORQUE * fore_hind / body.body_length[n]
+                    - (wp * wp * z[n, 1] + 2.0 * PITCH_DAMPING * wp * w[n, 1]) * dt)
+        z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
         # girdles' headings' cosines and sines taken once)
         c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
@@ -112,9 +169,17 @@ def body_rows(body, state, scratch, reach, sc, out):
         drops_now[n, 1] += (df - drops_now[n, 1]) * sc.a_drop
         pelvis = body.pelvis_height[n]
         target_h = pelvis * (1.0 - drops_now[n, 0]) + bob
-        bs.height[n] += (target_h - bs.height[n]) * sc.a_drop
-        out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis,
-                                  body.body_length[n])
+        bs.base_height[n] += (target_h - bs.base_height[n]) * sc.a_drop
+        # the rises about the trunk's centre, their difference scaled; a
+        # girdle rises no higher than its planted feet reach
+        mid = z[n, 0]
+        half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
+        rise_h = min(mid - half, pelvis * max(drops_now[n, 0] - max(need[2], need[3]), 0.0))
+        rise_f = min(mid + half, pelvis * max(drops_now[n, 1] - max(need[0], need[1]), 0.0))
+        bs.height[n] = bs.base_height[n] + rise_h
+        flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
+        out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis
+                                  + rise_f - rise_h, body.body_length[n]) + flexing
         # girdle sway from where the left and right feet are
         for g, (left, right) in enumerate(((2, 3), (0, 1))):  # hind, fore
             width = max(abs(lx[left] - lx[right]), MIN_STANCE_WIDTH)

@@ -162,6 +162,7 @@ class FeetState(NamedTuple):
     theta_td: np.ndarray  #: phase of the planned touchdown (rad)
     planted: np.ndarray   #: (N, 4, 3) where each planted foot is (m)
     liftoff: np.ndarray   #: (N, 4, 3) where each swing began (m)
+    target: np.ndarray    #: (N, 4, 3) each swing's touchdown point, latched late in swing (m)
 
 
 class BodyState(NamedTuple):
@@ -170,8 +171,11 @@ class BodyState(NamedTuple):
     spine_angle: np.ndarray   #: the bounding spine's machine angle (rad)
     spine_smooth: np.ndarray  #: spine pitch after its filter (rad)
     drops_now: np.ndarray     #: (N, 2) hind and fore girdle drops
-    height: np.ndarray        #: pelvis height (m)
+    height: np.ndarray        #: pelvis height (m): ``base_height`` plus the hind girdle's rise
     tail: np.ndarray          #: (N, T, 2) tail joints' (pitch, yaw) (rad)
+    heave: np.ndarray         #: (N, 2) the trunk centre's rise (m) and rocking (rad)
+    heave_rate: np.ndarray    #: (N, 2) their rates (m/s, rad/s)
+    base_height: np.ndarray   #: pelvis height the drops set, after their filter (m)
 
 
 class PlanState(NamedTuple):

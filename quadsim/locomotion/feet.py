@@ -33,6 +33,10 @@ MIN_STANCE_PHASE = 1e-9
 MIN_LEAD_SPEED = 1e-6
 #: A swing has landed once its progress is within this of 1.
 TOUCHDOWN_EPS = 1e-12
+#: From this swing progress on the touchdown point is held where it was
+#: planned (the foot commits to its landing spot, so the path's end stands
+#: still while the foot comes down onto it).
+LATCH_PROGRESS = 0.6
 
 
 @inner
@@ -60,7 +64,7 @@ def feet_rows(state, scratch, reach, sc, out):
     v, yaw_rate = state.motion.speed, state.motion.yaw_rate
     ft = state.feet
     stance, swing_s, theta_lo, theta_td = ft.stance, ft.swing_s, ft.theta_lo, ft.theta_td
-    planted, liftoff = ft.planted, ft.liftoff
+    planted, liftoff, target = ft.planted, ft.liftoff, ft.target
     keys, key_heading = scratch.keys, scratch.key_heading
     foot_offset = reach.foot_offset
     feet, fold = out.feet, out.fold
@@ -103,6 +107,10 @@ def feet_rows(state, scratch, reach, sc, out):
             ox, oz = foot_offset[n, i, 0], foot_offset[n, i, 2]
             tx = (keys[n, g, 0] + dx) + (cs * ox + sn * oz)
             tz = (keys[n, g, 2] + dz) + (-sn * ox + cs * oz)
+            if swing_s[n, i] < LATCH_PROGRESS:
+                target[n, i, 0], target[n, i, 1], target[n, i, 2] = tx, 0.0, tz
+            else:
+                tx, tz = target[n, i, 0], target[n, i, 2]
             ax, ay, az = liftoff[n, i, 0], liftoff[n, i, 1], liftoff[n, i, 2]
             ddx, ddy, ddz = tx - ax, 0.0 - ay, tz - az
             step_len = math.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)

@@ -184,9 +184,11 @@ def _layout(parents, spine, tail, neck, trunk, leg_int):
         how[neck[k]] = FK_FULL
         late[neck[k]] = True
     for i in range(leg_int.shape[0]):
-        for k in range(leg_int[i, 0] + 1):
+        n = leg_int[i, 0]
+        for k in range(n + 1):
             j = leg_int[i, 4 + k]
-            how[j] = FK_FULL if k == 0 else FK_ABOUT_X
+            # the foot joint also turns about its vertical (its yaw held)
+            how[j] = FK_FULL if k == 0 or k == n else FK_ABOUT_X
             late[j] = True
     stale = False
     n_fixed = 0
@@ -356,7 +358,8 @@ def pose_rows(plan, rig, local, positions, err):
     parents, offsets, spine, tail, neck, trunk, thorax = rig[:7]
     leg_int, leg_top, leg_bones, leg_scal = rig[7:]
     legs = (leg_int, leg_top, leg_bones, leg_scal)
-    cols = np.array([FEET, FOLD, TOE])  # an array: solve_leg's call shares the compiled IK
+    # an array: solve_leg's call shares the compiled IK
+    cols = np.array([FEET, FOLD, TOE, HEADING, BEND_YAW])
     T = plan.shape[0]
     G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
     how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
