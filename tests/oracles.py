@@ -128,8 +128,10 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
 
 def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
               target: np.ndarray, fold: np.ndarray | float = 0.0,
-              toe_pitch: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Local rotations that put a leg's foot joint on a target.
+              toe_pitch: np.ndarray | float = 0.0,
+              foot_yaw: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Local rotations that put a leg's foot joint on a target (and, if
+    ``foot_yaw`` is given, the foot at that world yaw, rad).
 
     Parameters
     ----------
@@ -185,15 +187,16 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     alpha = np.arctan2(fwd_t, down_t)
     qd = np.zeros(batch)
     qf = np.zeros(batch)
+    swing = alpha - phi_down - geom.rest_leg_angle  # from rest, to the world vertical
     for k in range(k0):
-        phi[..., k] = A0[..., k] + geom.pre_gain * (alpha - geom.rest_leg_angle)
+        phi[..., k] = A0[..., k] + phi_down + geom.pre_gain * swing
         qd = qd + L[..., k] * np.cos(phi[..., k])
         qf = qf + L[..., k] * np.sin(phi[..., k])
     # post bones: rest angle to the world vertical, turned with the leg, plus
     # the swing fold
     fold = np.asarray(fold, dtype=float)
     for k in range(k0 + 2, n):
-        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * (alpha - geom.rest_leg_angle)
+        phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * swing
                        + geom.fold[..., k] * fold)
     reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
     # keep the post joints inside their limits relative to the bone above,
@@ -213,4 +216,8 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)
     local = matrices_about_axis(0, rel)
     local[..., 0, :, :] = matrices_about_axis(2, a) @ local[..., 0, :, :]
+    if foot_yaw is not None:  # the foot turned about its vertical to this world yaw
+        plane = np.arctan2(Rp[..., 0, 2], Rp[..., 2, 2])
+        local[..., n, :, :] = local[..., n, :, :] @ matrices_about_axis(
+            1, np.asarray(foot_yaw, dtype=float) - plane)
     return local, reached

@@ -317,7 +317,7 @@ def test_speed_zero_stands_on_four_feet_and_sets_off_again(character):
     ch = load_character(character)
     s = Script((0.0, 2.0, 6.0, 9.0), (Command(speed=0.0), Command(speed=1.0),
                                      Command(speed=0.0), Command(speed=2.5)))
-    m = simulate(ch, s, 13.0, FPS)
+    m = simulate(ch, s, 15.0, FPS)
     feet = m.foot_positions()
     contacts = M.foot_contacts(feet, FPS)
     # standing: from the start, and again once the stop has settled
@@ -325,7 +325,9 @@ def test_speed_zero_stands_on_four_feet_and_sets_off_again(character):
     assert contacts[int(8.0 * FPS): int(9.0 * FPS)].all()
     # walking in between and trotting at the end: feet leave the ground
     assert not contacts[int(3.0 * FPS): int(6.0 * FPS)].all(axis=0).any()
-    speed, _ = M.root_speed(m.time_slice(12.0, 13.0).root_positions, FPS)
+    # (setting off, the reach governor holds the speed until the trot's
+    # longer strides are under way: up to five seconds for the horse)
+    speed, _ = M.root_speed(m.time_slice(14.0, 15.0).root_positions, FPS)
     assert speed == pytest.approx(2.5, rel=0.05)
     slide, pen = slide_and_penetration(m)
     assert slide < SLIDE_LIMIT and pen < PENETRATION_LIMIT

@@ -20,7 +20,7 @@ from quadsim.locomotion import bundles as B
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
-from quadsim.locomotion.feet import feet_rows
+from quadsim.locomotion.feet import LATCH_PROGRESS, feet_rows
 from quadsim.locomotion.footpath import swing_position as compiled_swing_position
 from quadsim.locomotion.plan_kernels import step_constants
 from quadsim.locomotion.pose_kernel import pack_plan
@@ -99,9 +99,11 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     theta_td[0, 0] = theta[0, 0] - 1.0
     planted = rng.normal(0, 1, (n, 4, 3))
     liftoff = rng.normal(0, 1, (n, 4, 3))
+    latched = rng.normal(0, 1, (n, 4, 3))  # touchdown points held from earlier steps
+    latched[..., 1] = 0.0
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
-                                                   liftoff, liftoff)))
+                                                   liftoff, latched)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -110,14 +112,15 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
         B.ScheduleState(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, bool), z, z,
                         params, params),
         feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2)),
-                                np.zeros((n, 2)), np.zeros((n, 2)), z.copy()))
+                                np.zeros((n, 2)), np.zeros((n, 2)), z.copy(), np.zeros((n, 2))))
     scratch = B.StepScratch(z, z, z4, theta - 0.1, keys, kh, final, np.zeros((n, 4), bool), half)
     reach = B.ReachTables(np.zeros(2), np.zeros((n, 2, 4)), np.zeros((n, 2)),
-                          np.zeros((n, 4, 2)), offset)
+                          np.zeros((n, 4, 2)), offset, np.zeros((n, 4)), np.zeros((n, 4)),
+                          np.full((n, 4), np.inf), np.zeros((n, 4)))
     out = B.plan_outputs(n)
     _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
     feet, fold = out.feet, out.fold
-    st, ss, lo, td, pl, lf = feet_state
+    st, ss, lo, td, pl, lf, _ = feet_state
     assert not st[0, 0] and lo[0, 0] <= theta[0, 0] < td[0, 0]
     np.testing.assert_array_equal(lf[0, 0], planted[0, 0])
     # the expected targets and swing positions, from the array functions
@@ -130,6 +133,9 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     kp, kh_new = arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     target = kp + rotate_y(offset, kh_new)
     target[..., 1] = 0.0
+    # late in swing the touchdown point is the one held, not the one planned now
+    late = s >= LATCH_PROGRESS
+    target[late] = latched[late]
     step = np.linalg.norm(target - lf, axis=-1)
     height = np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
     want = swing_position(lf, target, height, s)
@@ -184,9 +190,10 @@ def _reference_pose(ch, poser, plan):
     G, P = forward_kinematics(sk, L, plan["root"])
     err = np.zeros((T, 4))
     for i, geom in enumerate(poser.legs):
+        yaw = plan["heading"] + (plan["bend_yaw"] if i < 2 else 0.0)  # the fore feet's bend
         L[:, geom.chain], err[:, i] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
                                                 plan["feet"][:, i], plan["fold"][:, i],
-                                                plan["toe"][:, i])
+                                                plan["toe"][:, i], foot_yaw=yaw)
     _, P = forward_kinematics(sk, L, plan["root"])
     return L, P, err
 

@@ -77,10 +77,20 @@ def trunk_pitch(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
 
 
 def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
-    """Angle between the pelvis-to-mid-spine and mid-spine-to-withers chords, (T,) (rad)."""
+    """Angle between the pelvis-to-mid-spine and mid-spine-to-withers chords, (T,) (rad).
+
+    Signed: positive while the back arches (the mid-spine above the
+    pelvis-to-withers line, flexion), negative while it sags (extension),
+    so that a stride's range spans both (an unsigned angle would fold an
+    extension onto a flexion of the same size).
+    """
     a = positions[:, anatomy.mid_spine] - positions[:, anatomy.pelvis]
     b = positions[:, anatomy.withers] - positions[:, anatomy.mid_spine]
-    return _angle(a, b)
+    # the body's left: up x forward, forward the pelvis-to-withers line
+    fwd = positions[:, anatomy.withers] - positions[:, anatomy.pelvis]
+    left = np.stack([fwd[:, Z], np.zeros(len(fwd)), -fwd[:, X]], axis=-1)
+    sign = np.where(np.einsum("ti,ti->t", np.cross(a, b), left) < 0.0, 1.0, -1.0)
+    return sign * _angle(a, b)
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -6,8 +6,10 @@ sagittal plane at rest, so a leg moves in a plane that the top joint swings
 sideways (abduction about the body's forward axis). In that plane the chain
 is solved as
 
-* **pre** bones (above the two-bone pair, e.g. the cat's scapula): they swing
-  with the leg by a fixed fraction of the leg's angle;
+* **pre** bones (above the two-bone pair, e.g. the cat's scapula): at their
+  rest angle to the *world* vertical, swung with the leg by a fixed fraction
+  of the leg's angle (so a trunk that pitches or flexes does not carry the
+  shoulder joint fore and aft);
 * the **two-bone pair** (shoulder-elbow-wrist, hip-knee-hock): solved exactly
   by the law of cosines, the middle joint bending forward (knee) or back
   (elbow) as the character file says;
@@ -302,11 +304,13 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
             # its angle in the leg plane
             gy = -(G[g, p, 1, 0] * -1.0) * sa + (G[g, p, 1, 1] * -1.0) * ca
             phi_down = math.atan2(G[g, p, 1, 2] * -1.0, -gy)
-            swing = math.atan2(fwd_t, down_t) - rest_leg
+            # the leg's swing from its rest angle to the world vertical (a
+            # trunk that pitches or flexes does not swing the leg's bones)
+            swing = math.atan2(fwd_t, down_t) - phi_down - rest_leg
             qd = 0.0
             qf = 0.0
-            for k in range(k0):  # pre bones swing with the leg
-                ang = leg_bones[i, 1, k] + pre_gain * swing
+            for k in range(k0):  # pre bones: to the world vertical, swung with the leg
+                ang = leg_bones[i, 1, k] + phi_down + pre_gain * swing
                 phi[k] = ang
                 cphi[k] = math.cos(ang)
                 sphi[k] = math.sin(ang)

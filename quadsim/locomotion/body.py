@@ -59,14 +59,43 @@ MAX_HEAVE = 0.2
 #: diagonal pairs of the trot push fore and hind alike and barely rock it;
 #: the canter and gallops, fore and hind in turn, rock it nose-up and
 #: nose-down.
-PITCH_TORQUE = 1.5
+PITCH_TORQUE = 1.2
 PITCH_HOLD_PER_STRIDE = 0.6
 PITCH_DAMPING = 0.5
+#: The flexing gaits (walk, trot, pace) rock by this fraction of it.
+FLEX_ROCK = 0.4
 #: The rocking is at most this (rad) either way.
 MAX_ROCK = 0.35
 #: In the flexing gaits (walk, trot, pace) the trunk also pitches by this
 #: fraction of the spine's compress/stretch angle.
-PITCH_FROM_FLEX = 0.2
+PITCH_FROM_FLEX = 0.1
+
+
+#: A planted foot is kept within this fraction of its leg's reach.
+STANCE_REACH = 0.97
+
+
+@inner
+def _reach_cap(n, g, left, right, ft, keys, key_heading, feet, reach, dropped, flex):
+    """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
+    (``dropped`` m below standing) with its planted feet ``left``, ``right``
+    within :data:`STANCE_REACH` of their legs' reach (infinite with none
+    planted): each leg's top over the ground point of its key and offsets,
+    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state."""
+    cap = math.inf
+    c, sn = math.cos(key_heading[n, g]), math.sin(key_heading[n, g])
+    for i in (left, right):
+        if not ft.stance[n, i]:
+            continue
+        fx, fz = feet[n, i, 0], feet[n, i, 2]
+        ox, oz = reach.foot_offset[n, i, 0], reach.top_ahead[n, i]
+        dx = fx - (keys[n, g, 0] + c * ox + sn * oz)
+        dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
+        r = STANCE_REACH * reach.radius[n, i]
+        high = math.sqrt(max(r * r - dx * dx - dz * dz, 0.0))
+        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex
+        cap = min(cap, high - top)
+    return cap
 
 
 @inner
@@ -142,7 +171,8 @@ def body_rows(body, state, scratch, reach, sc, out):
         w[n, 0] += dv
         z[n, 0] = min(max(z[n, 0] + w[n, 0] * dt, -MAX_HEAVE * h), MAX_HEAVE * h)
         wp = 2.0 * math.pi * PITCH_HOLD_PER_STRIDE * f
-        w[n, 1] += (PITCH_TORQUE * fore_hind / body.body_length[n]
+        torque = PITCH_TORQUE * (bound + FLEX_ROCK * (1.0 - bound))
+        w[n, 1] += (torque * fore_hind / body.body_length[n]
                     - (wp * wp * z[n, 1] + 2.0 * PITCH_DAMPING * wp * w[n, 1]) * dt)
         z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
@@ -174,12 +204,18 @@ def body_rows(body, state, scratch, reach, sc, out):
         # girdle rises no higher than its planted feet reach
         mid = z[n, 0]
         half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
-        rise_h = min(mid - half, pelvis * max(drops_now[n, 0] - max(need[2], need[3]), 0.0))
-        rise_f = min(mid + half, pelvis * max(drops_now[n, 1] - max(need[0], need[1]), 0.0))
+        flex = bs.spine_smooth[n]
+        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, key_heading, feet,
+                                            reach, pelvis * drops_now[n, 0], flex))
+        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, key_heading, feet,
+                                            reach, pelvis * drops_now[n, 1], flex))
         bs.height[n] = bs.base_height[n] + rise_h
+        bs.rise[n, 0] = rise_h
+        bs.rise[n, 1] = rise_f
         flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
+        # (a positive pitch tips the nose down)
         out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis
-                                  + rise_f - rise_h, body.body_length[n]) + flexing
+                                  - (rise_f - rise_h), body.body_length[n]) + flexing
         # girdle sway from where the left and right feet are
         for g, (left, right) in enumerate(((2, 3), (0, 1))):  # hind, fore
             width = max(abs(lx[left] - lx[right]), MIN_STANCE_WIDTH)

@@ -37,6 +37,12 @@ TOUCHDOWN_EPS = 1e-12
 #: planned (the foot commits to its landing spot, so the path's end stands
 #: still while the foot comes down onto it).
 LATCH_PROGRESS = 0.6
+#: A swing foot stays within this fraction of its leg's reach of the leg's
+#: top joint (the leg keeps a bend in swing rather than locking straight),
+#: fully until this swing progress, the hold then easing off so the foot
+#: still lands on its touchdown point.
+SWING_REACH = 0.98
+REACH_HOLD_UNTIL = 0.8
 
 
 @inner
@@ -124,3 +130,19 @@ def feet_rows(state, scratch, reach, sc, out):
                 continue
             swing_into((ax, ay, az), (tx, 0.0, tz), height, s, feet, n, i)
             fold[n, i] = math.sin(math.pi * s) ** 2
+            # within reach of the leg's top (where the body left it last step)
+            oz = reach.top_ahead[n, i]
+            px = keys[n, g, 0] + cs * ox + sn * oz
+            pz = keys[n, g, 2] - sn * ox + cs * oz
+            py = reach.top_height[n, i] * (1.0 - state.body.drops_now[n, g]) \
+                + state.body.rise[n, g] + reach.flex_lift[n, i] * state.body.spine_smooth[n]
+            rx, ry, rz = feet[n, i, 0] - px, feet[n, i, 1] - py, feet[n, i, 2] - pz
+            r = math.sqrt(rx * rx + ry * ry + rz * rz)
+            rmax = SWING_REACH * reach.radius[n, i]
+            if r > rmax:
+                w = 1.0 if s <= REACH_HOLD_UNTIL else max(
+                    1.0 - (s - REACH_HOLD_UNTIL) / (1.0 - REACH_HOLD_UNTIL), 0.0)
+                k = 1.0 - w * (1.0 - rmax / r)
+                feet[n, i, 0] = px + rx * k
+                feet[n, i, 1] = py + ry * k
+                feet[n, i, 2] = pz + rz * k

@@ -60,13 +60,13 @@ def _segment(p0, p1, p2, p3, t):
 #: Knots of the swing path: fraction of the step covered and fraction of the
 #: clearance, first and last only shaping the end tangents.
 SWING_KNOTS = np.array([
-    [0.18, -0.60],
+    [0.20, 0.00],
     [0.00, 0.00],
-    [0.18, 0.60],
+    [0.20, 0.75],
     [0.58, 1.00],
     [0.93, 0.60],
     [1.00, 0.00],
-    [0.93, -0.60],
+    [0.93, 0.20],
 ])
 
 
