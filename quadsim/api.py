@@ -295,7 +295,8 @@ def run_reporting(config, report=None):
 
 
 def model_of(character):
-    """The user's own model (a ``.gltf``/``.glb`` path) a character was adopted from, or None."""
+    """The user's own model (a ``.gltf``/``.glb``/``.bvh`` path) a character was adopted
+    from, or None."""
     f = getattr(character, "file", None)
     return None if f is None else f.character.model
 
@@ -314,8 +315,10 @@ def save(motion, path, *, units: str = "m", character=None) -> Path:
         Length unit of a BVH file; the other formats are always in metres.
     character : Character, optional
         The character the motion is of. When it was adopted from the user's own
-        model (its file's ``character.model``), a ``.glb`` is that model with
-        the motion added as an animation (:mod:`quadsim.io.rig_export`).
+        model (its file's ``character.model``), a ``.glb`` is that glTF model
+        with the motion added as an animation (:mod:`quadsim.io.rig_export`)
+        and a ``.bvh`` the user's own hierarchy, joint names, offsets, axes and
+        unit (:mod:`quadsim.io.bvh_rig`; ``units`` does not apply).
 
     Returns
     -------
@@ -341,15 +344,20 @@ def save(motion, path, *, units: str = "m", character=None) -> Path:
     if units != "m" and ext != ".bvh":
         warnings.warn(f"{ext} files are always in metres; units {units!r} apply to .bvh "
                       "files only", UserWarning, stacklevel=2)
+    model = model_of(character)
+    if units != "m" and ext == ".bvh" and model is not None:
+        warnings.warn(f"units {units!r} do not apply: the .bvh is written in the unit of "
+                      f"{character.id}'s own model ({model.name})", UserWarning, stacklevel=2)
     path.parent.mkdir(parents=True, exist_ok=True)
-    if ext == ".bvh":
+    if model is not None and (ext == ".bvh" or (ext == ".glb"
+                                                and model.suffix.lower() != ".bvh")):
+        from quadsim.io.adopt import write_for_character
+
+        write_for_character(character, motion, path, names=[_animation_name(motion)])
+    elif ext == ".bvh":
         from quadsim.io.bvh import write_bvh
 
         write_bvh(motion, path, units=units)
-    elif ext == ".glb" and model_of(character) is not None:
-        from quadsim.io.adopt import adopt
-
-        adopt(model_of(character)).write(motion, path, names=[_animation_name(motion)])
     elif ext == ".glb":
         from quadsim.io.gltf import write_glb
 

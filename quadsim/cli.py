@@ -14,7 +14,7 @@
                     [--camera follow|side|top]
     quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
                    [--camera follow|side|top] [--fps N]
-    quadsim rig MODEL.glb|.gltf [--out CHARACTER.toml] [--id ID]
+    quadsim rig MODEL.glb|.gltf|.bvh [--out CHARACTER.toml] [--id ID]
     quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
@@ -491,12 +491,12 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--quiet", action="store_true", help="no progress bar")
     rd.set_defaults(func=cmd_render)
 
-    rg = sub.add_parser("rig", help="adopt your own rigged quadruped (glTF) as a character",
+    rg = sub.add_parser("rig", help="adopt your own rigged quadruped (glTF, BVH) as a character",
                         description="Find a rig's legs, spine, neck, head and tail from its "
                         "shape, print what was matched and ignored, and write a character "
                         "file that refers to the model; `quadsim run` of that file writes "
-                        ".glb files into your own model.")
-    rg.add_argument("model", metavar="MODEL.glb|.gltf")
+                        ".glb files into your own model, .bvh in your own hierarchy.")
+    rg.add_argument("model", metavar="MODEL.glb|.gltf|.bvh")
     rg.add_argument("--out", metavar="CHARACTER.toml",
                     help="character file to write (default <model name>.toml)")
     rg.add_argument("--id", help="character identifier (default from the model's name)")

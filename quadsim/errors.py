@@ -45,3 +45,29 @@ def read_toml(path, kind: str) -> dict:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{path}: not valid TOML: {e}") from None
+
+
+def read_text_lines(path, kind: str = "") -> list[str]:
+    """The lines of the text file at ``path`` (UTF-8, with or without a byte
+    order mark, else Latin-1; any line ending), a ``kind`` file ("BVH", say).
+
+    Raises
+    ------
+    InputError
+        When the file is missing or cannot be read; the message names the file.
+    """
+    import re
+
+    path = Path(path)
+    what = f"{kind} file" if kind else "file"
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise InputError(f"{path}: no such {what}") from None
+    except OSError as e:
+        raise InputError(f"{path}: cannot read the file ({e.strerror or e})") from None
+    try:
+        text = raw.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        text = raw.decode("latin-1")
+    return re.split(r"\r\n|\r|\n", text)

@@ -59,17 +59,20 @@ def test_a_skeleton_with_three_legs_is_not_a_quadruped():
 def test_trunk_pitch_and_spine_flexion_of_known_poses():
     a = find_anatomy(quadsim.load_character("leopard").skeleton)
     J = len(a.names)
-    P = np.zeros((2, J, 3))
+    P = np.zeros((3, J, 3))
     # frame 0: the trunk raised 20 deg at the withers, straight;
     # frame 1: level girdles, the mid-spine dropped so the chords meet at 30 deg
+    # (the back sags: extension, negative); frame 2: raised as far (it arches)
     P[0, a.pelvis] = [0, 0.5, 0]
     P[0, a.withers] = [0, 0.5 + math.sin(math.radians(20)), math.cos(math.radians(20))]
     P[0, a.mid_spine] = 0.5 * (P[0, a.pelvis] + P[0, a.withers])
     P[1, a.pelvis] = [0, 0.5, 0]
     P[1, a.withers] = [0, 0.5, 1.0]
     P[1, a.mid_spine] = [0, 0.5 - 0.5 * math.tan(math.radians(15)), 0.5]
-    np.testing.assert_allclose(np.degrees(trunk_pitch(P, a)), [20.0, 0.0], atol=1e-9)
-    np.testing.assert_allclose(np.degrees(spine_flexion(P, a)), [0.0, 30.0], atol=1e-9)
+    P[2] = P[1]
+    P[2, a.mid_spine] = [0, 0.5 + 0.5 * math.tan(math.radians(15)), 0.5]
+    np.testing.assert_allclose(np.degrees(trunk_pitch(P, a)), [20.0, 0.0, 0.0], atol=1e-9)
+    np.testing.assert_allclose(np.degrees(spine_flexion(P, a)), [0.0, -30.0, 30.0], atol=1e-9)
 
 
 def test_toe_tips_are_the_feet_end_sites_in_the_world():

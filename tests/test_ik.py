@@ -248,3 +248,51 @@ def test_fold_and_toe_pitch_keep_the_foot_on_target(name, leg_name):
     assert ok.mean() > 0.8
     P = pose(ch, geom, local[ok])
     np.testing.assert_allclose(P[:, leg.foot], targets[ok], rtol=0, atol=1e-9)
+
+
+# ------------------------------------------------------------------ what a viewer sees
+@pytest.mark.parametrize("name, leg_name", CASES, ids=IDS)
+@pytest.mark.parametrize("pitch_deg", [-15.0, 15.0])
+def test_a_pitched_trunk_leaves_the_planted_foot_level(name, leg_name, pitch_deg):
+    """A trunk pitched nose up or down does not tip the foot: with no toe pitch the
+    foot bone's end (the toe tip) stands level with its joint in the world, as at
+    rest. (World down was once read from the wrong axis of the parent's frame,
+    and every pitched trunk tipped paws and hooves by twice its pitch.)"""
+    ch, leg, geom = setup(name, leg_name)
+    rest = ch.skeleton.rest_positions
+    R = matrices_from_axis_angles(np.array([1.0, 0.0, 0.0]), np.radians(pitch_deg))
+    top = rest[geom.parent] + R @ geom.top_offset
+    target = rest[leg.foot] + (top - (rest[geom.parent] + geom.top_offset))  # below the top
+    local, reached = solve_leg(geom, R, rest[geom.parent], target)
+    assert reached == 0.0
+    sk = ch.skeleton
+    L = np.broadcast_to(np.eye(3), (sk.n_joints, 3, 3)).copy()
+    L[geom.parent] = R
+    L[geom.chain] = local
+    G, P = forward_kinematics(sk, L, sk.offsets[0])
+    end = G[leg.foot] @ sk.end_sites[sk.names[leg.foot]]
+    G0, _ = forward_kinematics(sk, np.broadcast_to(np.eye(3), L.shape), sk.offsets[0])
+    end0 = G0[leg.foot] @ sk.end_sites[sk.names[leg.foot]]
+    np.testing.assert_allclose(P[leg.foot], target, atol=1e-9)
+    np.testing.assert_allclose(end[1], end0[1], atol=1e-9)
+
+
+@pytest.mark.parametrize("name, leg_name", CASES, ids=IDS)
+def test_the_pair_keeps_a_bend_for_targets_out_of_reach(name, leg_name):
+    """Straight below the top joint and far out of reach, the elbow or knee still
+    bends by at least 5 degrees (it never locks straight), and the miss is
+    reported."""
+    ch, leg, geom = setup(name, leg_name)
+    rest = ch.skeleton.rest_positions
+    top = rest[geom.parent] + geom.top_offset
+    targets = top + np.array([0.0, -3.0, 0.0]) * ch.hip_height * np.linspace(1, 2, 5)[:, None]
+    reached, miss = true_miss(ch, leg, geom, targets)
+    assert (reached > 0).all()
+    local, _ = solve_leg(geom, np.eye(3), rest[geom.parent], targets)
+    P = pose(ch, geom, local)
+    k = geom.pair
+    a, b, c = (P[:, geom.chain[k + d]] for d in range(3))
+    u, w = a - b, c - b
+    inner = np.degrees(np.arccos(np.einsum("ni,ni->n", u, w)
+                                 / np.linalg.norm(u, axis=1) / np.linalg.norm(w, axis=1)))
+    assert inner.max() <= 175.0, inner

@@ -326,4 +326,4 @@ def test_quadsim_rig_refuses_what_it_cannot_adopt(tmp_path, capsys):
     assert main(["rig", str(tmp_path / "none.glb")]) == 2
     assert "no such file" in capsys.readouterr().err
     assert main(["rig", str(tmp_path / "x.fbx")]) == 2
-    assert "reads .gltf or .glb" in capsys.readouterr().err
+    assert "reads .gltf, .glb or .bvh" in capsys.readouterr().err

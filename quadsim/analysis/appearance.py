@@ -89,7 +89,8 @@ def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
     # the body's left: up x forward, forward the pelvis-to-withers line
     fwd = positions[:, anatomy.withers] - positions[:, anatomy.pelvis]
     left = np.stack([fwd[:, Z], np.zeros(len(fwd)), -fwd[:, X]], axis=-1)
-    sign = np.where(np.einsum("ti,ti->t", np.cross(a, b), left) < 0.0, 1.0, -1.0)
+    # an arch turns the chords from rising to falling: a x b points to the left
+    sign = np.where(np.einsum("ti,ti->t", np.cross(a, b), left) > 0.0, 1.0, -1.0)
     return sign * _angle(a, b)
 
 

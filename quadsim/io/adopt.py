@@ -1,30 +1,42 @@
 """Adopting a user's rig: its locomotion structure, a match report, a character file.
 
-:func:`adopt` reads a rig (:func:`~quadsim.io.rig.read_gltf_rig`), finds its
-quadruped structure from the geometry (:func:`~quadsim.skeleton.anatomy.find_anatomy`)
-and keeps the joints locomotion moves -- the spine from the pelvis to the
-withers, neck and head, tail, the four legs -- rooted at the pelvis; every
-other joint (root and helper joints above the pelvis, ears, jaw, eyes, twist
-bones) is listed as ignored with the reason, and follows its nearest kept
-ancestor when the motion is written into the model. :meth:`Adoption.report`
-is the match report; :meth:`Adoption.character_toml` the character file the
-user can read and edit.
+:func:`adopt` reads a rig (:func:`read_rig`: glTF or BVH, in
+its own axes and unit), finds its quadruped structure from the geometry
+(:func:`~quadsim.io.rig_structure.find_structure`) and keeps the joints
+locomotion moves -- the spine from the pelvis to the withers, neck and head,
+tail, the four legs -- rooted at the pelvis, in quadsim's frame and metres;
+every other joint (root and helper joints above the pelvis, ears, jaw, eyes,
+extra toes, twist bones, inline leg segments straight at rest) is listed as
+ignored with the reason, and follows its nearest kept ancestor when the motion
+is written into the model. :meth:`Adoption.report` is the match report;
+:meth:`Adoption.character_toml` the character file the user can read and
+edit; :func:`write_for_character` writes a run of such a character into the
+user's own kind of file (``.glb`` model, ``.bvh`` hierarchy).
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from quadsim.errors import InputError
 from quadsim.frames import LEGS, Y
-from quadsim.io.rig import Rig, read_gltf_rig
+from quadsim.io.bvh_rig import read_bvh_rig
+from quadsim.io.rig import Rig, foot_indices, read_gltf_rig
+from quadsim.io.rig_structure import (
+    RigMatchError,
+    find_structure,
+    name_kind,
+    path_up,
+    straight_joints,
+)
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.skeleton import Skeleton
 
-__all__ = ["PLANE_TOLERANCE", "TOE_SUFFIX", "TOE_TOLERANCE", "Adoption", "adopt"]
+__all__ = ["IK_BEND", "PLANE_TOLERANCE", "TOE_SUFFIX", "TOE_TOLERANCE", "Adoption", "adopt",
+           "read_rig", "rig_foot", "write_for_character", "write_rig_motion"]
 
 #: A foot joint higher than this (fraction of the hip height) above the lowest
 #: foot gets a toe joint of quadsim's own on the ground below it.
@@ -34,6 +46,9 @@ TOE_SUFFIX = "_toe"
 #: How far (fraction of the leg's length) a rig's leg joints may stand off the
 #: leg's sagittal plane; they are put in it.
 PLANE_TOLERANCE = 0.05
+#: The IK pair's middle joint bends its leg's way by at least this fraction of the
+#: pair's length at rest (the character file asks for 0.01).
+IK_BEND = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -56,6 +71,9 @@ class Adoption:
     head : str
     legs : dict of str to tuple of str
         Each leg's chain, LF, RF, LH, RH, from its top joint to its foot.
+    ik : dict of str to str
+        Each leg's IK pair top: the first joint whose next one bends the leg's
+        way at rest (an elbow back, a knee forward).
     ignored : dict of str to str
         Rig joints not kept, with the reason.
     ground : float
@@ -72,15 +90,14 @@ class Adoption:
     head: str
     tail: tuple[str, ...]
     legs: dict = field(default_factory=dict)
+    ik: dict = field(default_factory=dict)
     ignored: dict = field(default_factory=dict)
     ground: float = 0.0
 
     def write(self, motions, path, *, names=None):
-        """Write ``motions`` of :attr:`skeleton` into the rig's own model
-        (:func:`~quadsim.io.rig_export.write_into_model`)."""
-        from quadsim.io.rig_export import write_into_model
-
-        return write_into_model(self.rig, motions, path, names=names,
+        """Write ``motions`` of :attr:`skeleton` into the rig's own kind of file
+        (:func:`write_rig_motion`: a ``.glb`` of a glTF model, a ``.bvh``)."""
+        return write_rig_motion(self.rig, motions, path, names=names,
                                 root_offset=np.array([0.0, self.ground, 0.0]))
 
     def _length(self, chain) -> float:
@@ -92,9 +109,11 @@ class Adoption:
         """The match report: every chain with its bones and lengths, what was ignored."""
         P = self.skeleton.rest_positions
         a = self.anatomy
-        lines = [f"rig {self.rig.path.name}: {len(self.rig.names)} joints, unit "
-                 f"{self.rig.unit} (x {self.rig.scale:g} to metres), "
-                 f"{self.rig.vertex_count} skinned vertices",
+        r = self.rig
+        axes = (f"{r.up} up, {r.forward} forward" if r.frame_found else
+                "+Y up, +Z forward (assumed: not found from the shape)")
+        lines = [f"rig {r.path.name}: {len(r.names)} joints, unit {r.unit} "
+                 f"(x {r.scale:g} to metres), {axes}, {r.vertex_count} skinned vertices",
                  f"standing: hip {a.hip_height:.3f} m, withers "
                  f"{P[a.withers, Y] - P[a.feet[0], Y]:.3f} m",
                  f"spine ({self._length(self.spine):.3f} m): {' > '.join(self.spine)}",
@@ -106,7 +125,10 @@ class Adoption:
                          f"{' > '.join(chain)}")
         if self.ignored:
             lines.append(f"ignored ({len(self.ignored)}):")
-            lines += [f"  {n}: {why}" for n, why in self.ignored.items()]
+            by_reason: dict[str, list[str]] = {}
+            for n, why in self.ignored.items():
+                by_reason.setdefault(why, []).append(n)
+            lines += [f"  {', '.join(ns)}: {why}" for why, ns in by_reason.items()]
         return "\n".join(lines)
 
     def character_toml(self, character_id: str, *, name: str | None = None,
@@ -140,7 +162,7 @@ class Adoption:
                 f'head = "{self.head}"', f"tail = {names(self.tail)}", ""]
         for leg in LEGS:
             chain = self.legs[leg]
-            ik = chain[1] if len(chain) >= 5 else chain[0]
+            ik = self.ik[leg]
             bend = "back" if leg[1] == "F" else "forward"
             out += [f"[legs.{leg}]", f"chain = {names(chain)}", f'ik = "{ik}"',
                     f'bend = "{bend}"', ""]
@@ -157,80 +179,133 @@ def _toml_string(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
 
-_HELPER = re.compile(r"(twist|roll|helper|ik|pole|target|ctrl|control|end|nub)", re.I)
-_FACE = re.compile(r"(ear|jaw|eye|lid|brow|lip|tongue|mouth|nose|mane|teeth|tooth|whisker)",
-                   re.I)
+def read_rig(path, feet=None) -> Rig:
+    """The rig in ``path``: a ``.gltf``/``.glb`` model's first skin or a ``.bvh`` hierarchy.
+
+    ``feet`` (four joint names, optional) are the feet when given by hand;
+    they decide the up and forward axes. Raises :class:`InputError` for
+    another kind of file.
+    """
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext == ".bvh":
+        return read_bvh_rig(path, feet=feet)
+    if ext in (".gltf", ".glb"):
+        return read_gltf_rig(path, feet=feet)
+    raise InputError(f"{path}: a rig is read from .gltf, .glb or .bvh files")
 
 
-def _why(name: str, above_pelvis: bool) -> str:
-    if above_pelvis:
-        return "root or helper joint above the pelvis (follows the pelvis)"
-    if _FACE.search(name):
-        return "face or head detail, not locomotion (follows the head)"
-    if _HELPER.search(name):
-        return "twist, helper or end bone (follows its parent)"
-    return "not on a locomotion chain (follows its nearest kept parent)"
+def _ik_joint(P: np.ndarray, chain, fore: bool) -> int:
+    """Position in ``chain`` of the IK pair's top: the first joint whose next joint bends
+    the leg's way (an elbow back, a knee forward) by :data:`IK_BEND` of the pair's length,
+    else the one bending most that way."""
+    sign = -1.0 if fore else 1.0
+    best, best_k = -np.inf, 0
+    for k in range(len(chain) - 2):
+        a, b, d = (P[chain[k + i]] for i in range(3))
+        u, w = d - a, b - a
+        length = np.linalg.norm(b - a) + np.linalg.norm(d - b)
+        fwd = (u[2] * w[1] - u[1] * w[2]) / max(np.hypot(u[2], u[1]), 1e-12)
+        if sign * fwd >= IK_BEND * length:
+            return k
+        if sign * fwd / length > best:
+            best, best_k = sign * fwd / length, k
+    return best_k
 
 
-def adopt(path) -> Adoption:
-    """Map the rig in ``path`` (``.gltf`` or ``.glb``) onto quadsim's structure.
+def _reasons(full: Skeleton, s, keep: set, inline: dict) -> dict[str, str]:
+    """Why each rig joint not kept is left out."""
+    parents = full.parents
+    above = set(path_up(parents, s.pelvis)[1:])
+    under_head = set()
+    for j in range(full.n_joints):
+        if s.head in path_up(parents, j)[1:]:
+            under_head.add(j)
+    out = {}
+    for j, name in enumerate(full.names):
+        if j in keep:
+            continue
+        if j in above:
+            why = "root or helper joint above the pelvis (moves with the pelvis)"
+        elif j in s.toes:
+            why = f"another toe of the foot {full.names[s.toes[j]]} (follows its parent)"
+        elif j in inline:
+            why = f"inline segment of leg {inline[j]}, straight at rest (follows its parent)"
+        elif s.away.get(j) == "face" or name_kind(name) == "face":
+            why = "face, head or body detail, by its name (follows the joint it hangs from)"
+        elif j in under_head:
+            why = "head detail beyond the head (follows the head)"
+        elif s.away.get(j) == "helper" or name_kind(name) == "helper":
+            why = "twist, helper or control bone, by its name (follows its parent)"
+        elif s.pelvis not in path_up(parents, j):
+            why = "not below the pelvis (moves with it, keeps its rest rotation)"
+        else:
+            why = "not on a locomotion chain (follows the joint it hangs from)"
+        out[name] = why
+    return out
+
+
+def adopt(path, feet=None) -> Adoption:
+    """Map the rig in ``path`` (``.gltf``, ``.glb`` or ``.bvh``) onto quadsim's structure.
+
+    Parameters
+    ----------
+    path : str or path-like
+    feet : sequence of str, length 4, optional
+        The foot joints, when given by hand (any order).
 
     Raises
     ------
     InputError
         For a file that holds no rig.
-    ValueError
-        When the rig has no quadruped structure (the message says what was found).
+    RigMatchError
+        When the rig has no quadruped structure quadsim can find (a
+        ``ValueError``; the message says what was found, ``keys`` which keys
+        of the character file to set by hand).
     """
-    rig = read_gltf_rig(Path(path))
+    rig = read_rig(Path(path), feet=feet)
     full = rig.skeleton()
-    a = find_anatomy(full)
-    P = full.rest_positions
-    parents = full.parents
-    kids: list[list[int]] = [[] for _ in full.names]
-    for j in range(1, len(parents)):
-        kids[parents[j]].append(j)
-
-    def path_down(top, bottom):
-        out = [bottom]
-        while out[-1] != top:
-            out.append(int(parents[out[-1]]))
-        return out[::-1]
-
-    head_path = path_down(a.withers, a.head)[1:]
-    neck, head = head_path[:-1], head_path[-1]
-    below_pelvis = []
-    stack = [c for c in kids[a.pelvis]]
-    used = set(a.spine) | set(head_path) | {j for leg in a.legs for j in leg}
-    while stack:
-        j = stack.pop()
-        if j not in used:
-            below_pelvis.append(j)
-            stack += kids[j]
-    leaves = [j for j in below_pelvis if not kids[j] and P[j, 2] < P[a.pelvis, 2]]
-    tail = path_down(a.pelvis, min(leaves, key=lambda j: P[j, 2]))[1:] if leaves else []
-    keep = sorted(set(a.spine) | set(head_path) | set(tail)
-                  | {j for leg in a.legs for j in leg})
-    # the legs swing in their sagittal planes: joints below a leg's top are put in
-    # its plane (a rig's are off it by millimetres); farther off is no leg to adopt
-    P = P.copy()
-    for leg, chain in zip(LEGS, a.legs):
-        top = chain[0]
+    P = full.rest_positions.copy()
+    s = find_structure(P, full.names, full.parents, foot_indices(full.names, feet, path))
+    inline = {}
+    legs_idx = []
+    for leg, chain in zip(LEGS, s.legs):
+        drop = straight_joints(P, chain)
+        inline.update({j: leg for j in drop})
+        legs_idx.append([j for j in chain if j not in drop])
+    keep = sorted(set(s.spine) | set(s.neck) | {s.head} | set(s.tail)
+                  | {j for chain in legs_idx for j in chain})
+    # the legs swing in their sagittal planes: the joints below a leg's top are put
+    # in their common plane (a rig's are off it by millimetres; farther off is no leg
+    # to adopt), and the top joint (a scapula's head often lies nearer the spine)
+    # moves sideways into it, so that the rig's own leg below it is quadsim's
+    for leg, chain in zip(LEGS, legs_idx):
+        top, below = chain[0], list(chain[1:])
         length = float(np.linalg.norm(P[chain[-1]] - P[top]))
-        off = np.abs(P[list(chain[1:]), 0] - P[top, 0]).max()
+        plane = float(np.mean(P[below, 0]))
+        off = np.abs(P[below, 0] - plane).max()
         if off > PLANE_TOLERANCE * length:
-            raise ValueError(f"leg {leg} ({full.names[top]} to {full.names[chain[-1]]}) bends "
-                             f"{off:.3f} m out of its plane ({PLANE_TOLERANCE:.0%} of its "
-                             "length at most): quadsim's legs swing in their sagittal plane")
-        P[list(chain[1:]), 0] = P[top, 0]
+            raise RigMatchError(
+                f"leg {leg} ({full.names[top]} to {full.names[chain[-1]]}) bends {off:.3f} m "
+                f"out of its plane ({PLANE_TOLERANCE:.0%} of its length at most): quadsim's "
+                "legs swing in their sagittal plane", ())
+        P[chain, 0] = plane
     index = {j: k for k, j in enumerate(keep)}
-    names = list(full.names[j] for j in keep)
-    new_parents = [-1] + [index[int(parents[j])] for j in keep[1:]]
-    floor = float(min(P[f, Y] for f in a.feet))
+    names = [full.names[j] for j in keep]
+
+    def kept_parent(j):
+        p = int(full.parents[j])
+        while p not in index:
+            p = int(full.parents[p])
+        return index[p]
+
+    new_parents = [-1] + [kept_parent(j) for j in keep[1:]]
+    floor = float(min(P[f, Y] for f in s.feet))
     at = [P[j] - np.array([0.0, floor, 0.0]) for j in keep]          # the ground at y = 0
-    legs = [[full.names[j] for j in chain] for chain in a.legs]
-    for leg, foot in zip(legs, a.feet):
-        if P[foot, Y] - floor <= TOE_TOLERANCE * a.hip_height:
+    legs = [[full.names[j] for j in chain] for chain in legs_idx]
+    hip = float(np.mean([P[c[0], Y] - P[c[-1], Y] for c in legs_idx[2:]]))
+    for leg, foot in zip(legs, s.feet):
+        if P[foot, Y] - floor <= TOE_TOLERANCE * hip:
             at[index[foot]][Y] = 0.0            # on the ground (a rig's feet differ by a hair)
         else:  # a foot joint above the ground (a wrist): a toe joint of quadsim's own below it
             names.append(f"{full.names[foot]}{TOE_SUFFIX}")
@@ -239,19 +314,75 @@ def adopt(path) -> Adoption:
             leg.append(names[-1])
     at = np.array(at)
     offsets = np.array([at[0]] + [at[k] - at[new_parents[k]] for k in range(1, len(at))])
+    kids = full.children
     ends = {}
     for j in keep:
-        if not any(c in index for c in kids[j]) and kids[j]:
-            far = max((c for c in kids[j]), key=lambda c: np.linalg.norm(P[c] - P[j]))
-            ends[full.names[j]] = P[far] - P[j]
+        if any(c in index for c in kids[j]):
+            continue
+        if full.names[j] in rig.end_sites:
+            e = rig.axes @ rig.end_sites[full.names[j]] * rig.scale
+            if np.linalg.norm(e) > 1e-6:
+                ends[full.names[j]] = e
+        elif kids[j]:
+            far = max(kids[j], key=lambda c: np.linalg.norm(P[c] - P[j]))
+            if np.linalg.norm(P[far] - P[j]) > 1e-6:
+                ends[full.names[j]] = P[far] - P[j]
     sk = Skeleton(tuple(names), new_parents, offsets, ends)
-    above = set(range(len(full.names))) - set(keep)
-    top_chain = set(path_down(0, a.pelvis)) - {a.pelvis}
-    ignored = {full.names[j]: _why(full.names[j], j in top_chain) for j in sorted(above)}
+    Q = sk.rest_positions
+    ik = {}
+    for leg, chain in zip(LEGS, legs):
+        idx = list(sk.indices(tuple(chain)))
+        ik[leg] = chain[_ik_joint(Q, idx, leg[1] == "F")]
     nm = full.names
     return Adoption(
         rig=rig, skeleton=sk, rig_index=np.array(keep, dtype=np.int64),
-        anatomy=find_anatomy(sk), spine=tuple(nm[j] for j in a.spine),
-        neck=tuple(nm[j] for j in neck), head=nm[head], tail=tuple(nm[j] for j in tail),
-        legs={leg: tuple(chain) for leg, chain in zip(LEGS, legs)},
-        ignored=ignored, ground=floor)
+        anatomy=find_anatomy(sk, [c[-1] for c in legs]),
+        spine=tuple(nm[j] for j in s.spine), neck=tuple(nm[j] for j in s.neck),
+        head=nm[s.head], tail=tuple(nm[j] for j in s.tail),
+        legs={leg: tuple(chain) for leg, chain in zip(LEGS, legs)}, ik=ik,
+        ignored=_reasons(full, s, set(keep), inline), ground=floor)
+
+
+def rig_foot(chain) -> str:
+    """The rig's foot joint of a leg chain (names): its last joint, or the joint above
+    when that is a toe of quadsim's own (``<foot>_toe``)."""
+    last = chain[-1]
+    if last.endswith(TOE_SUFFIX) and len(chain) > 1 and chain[-2] == last[:-len(TOE_SUFFIX)]:
+        return chain[-2]
+    return last
+
+
+def write_rig_motion(rig: Rig, motions, path, *, names=None, root_offset=(0.0, 0.0, 0.0)):
+    """Write motions of an adopted skeleton into the rig's own kind of file: a ``.glb``
+    of the user's glTF model with the motions added
+    (:func:`~quadsim.io.rig_export.write_into_model`), or a ``.bvh`` of the rig's own
+    hierarchy (:func:`~quadsim.io.bvh_rig.write_rig_bvh`, the first motion)."""
+    from quadsim.skeleton.motion import Motion
+
+    ext = Path(path).suffix.lower()
+    if ext == ".bvh":
+        from quadsim.io.bvh_rig import write_rig_bvh
+
+        motion = motions if isinstance(motions, Motion) else list(motions)[0]
+        return write_rig_bvh(rig, motion, path, root_offset=root_offset)
+    if ext == ".glb" and not rig.is_bvh:
+        from quadsim.io.rig_export import write_into_model
+
+        return write_into_model(rig, motions, path, names=names, root_offset=root_offset)
+    raise InputError(f"{path}: a motion is written into {rig.path.name}'s own kind of file "
+                     f"as {'.bvh' if rig.is_bvh else '.glb or .bvh'}")
+
+
+def write_for_character(character, motion, path, *, names=None) -> Path:
+    """Write ``motion`` of a character adopted from the user's model (its file's
+    ``character.model``) into that model's kind of file (:func:`write_rig_motion`)."""
+    sk = character.skeleton
+    model = character.file.character.model
+    feet = [rig_foot([sk.names[j] for j in leg.chain]) for leg in character.legs]
+    rig = read_rig(model, feet=feet)
+    root = sk.names[0]
+    if root not in rig.names:
+        raise InputError(f"{character.file.character.id}: the root joint {root!r} is not a "
+                         f"joint of {model.name}")
+    offset = rig.rest_positions[rig.names.index(root)] - sk.rest_positions[0]
+    return write_rig_motion(rig, motion, path, names=names, root_offset=offset)

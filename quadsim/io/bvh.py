@@ -47,7 +47,7 @@ from pathlib import Path
 
 import numpy as np
 
-from quadsim.errors import InputError
+from quadsim.errors import InputError, read_text_lines
 from quadsim.io.atomic import atomic_write
 from quadsim.io.guess import guess_foot_joints, guess_units, rest_hip_height
 from quadsim.kinematics.rotations import (
@@ -289,17 +289,7 @@ def read_bvh(path: str | os.PathLike, *, units: str | None = None,
         if not np.isfinite(fps) or fps <= 0:
             raise InputError(f"`fps` must be a positive number, got {fps!r}")
     src = str(path)
-    try:
-        raw = Path(path).read_bytes()
-    except FileNotFoundError:
-        raise InputError(f"{src}: no such BVH file") from None
-    except OSError as e:
-        raise InputError(f"{src}: cannot read the file ({e.strerror or e})") from None
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError:
-        text = raw.decode("latin-1")
-    lines = re.split(r"\r\n|\r|\n", text)
+    lines = read_text_lines(path, "BVH")
     tok = _Tokens(lines, src)
     if not any(s.strip() for s in lines):
         raise tok.error(1, "empty file, expected HIERARCHY")

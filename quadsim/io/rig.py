@@ -15,23 +15,30 @@ skeleton carries over to the rig as world-space rotation changes
 names stay untouched.
 
 glTF is +Y up with metres as its unit, but exporters often leave the model
-in centimetres (the Khronos Fox stands 79 units tall): the unit is judged
-from the standing height (:func:`guess_unit`) and reported.
+in centimetres (the Khronos Fox stands 79 units tall) or in Blender's +Z up:
+the up and forward axes are found from the rig's shape
+(:func:`~quadsim.io.rig_structure.detect_frame`), the unit from the standing
+height along the up axis (:func:`guess_unit`), and both are reported. The
+rig keeps its own frame and unit (:attr:`Rig.rest_world`); :attr:`Rig.axes`
+turns it into quadsim's (+Y up, +Z forward, +X left).
+
+:func:`quadsim.io.adopt.read_rig` reads either kind of file: glTF here, BVH
+hierarchies with :func:`quadsim.io.bvh_rig.read_bvh_rig`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from quadsim.errors import InputError
-from quadsim.frames import Y
+from quadsim.io.rig_structure import detect_frame
 from quadsim.kinematics.rotations import matrices_from_quaternions
 from quadsim.skeleton.skeleton import Skeleton
 
-__all__ = ["UNITS", "Rig", "guess_unit", "read_gltf_rig"]
+__all__ = ["UNITS", "Rig", "foot_indices", "guess_unit", "read_gltf_rig"]
 
 #: Length units a rig may be in, as metres per unit.
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001}
@@ -67,6 +74,17 @@ class Rig:
     above : ndarray, shape (4, 4)
         World transform of the node above the root joint (identity when the
         root joint is a top node), in the file's units.
+    axes : ndarray, shape (3, 3)
+        Rotation from the rig's world to quadsim's: rows are the rig's left,
+        up and forward directions.
+    up, forward : str
+        The rig's up and forward axes (``"+Y"``, ``"-Y"``...), for reports.
+    frame_found : bool
+        False when the axes could not be told from the shape (+Y up assumed).
+    end_sites : dict of str to ndarray
+        Bone tips of leaf joints in the joint's frame, file units (BVH).
+    rotation_orders : tuple of str
+        Each joint's rotation channel order (BVH; empty for glTF).
     """
 
     path: Path
@@ -78,6 +96,17 @@ class Rig:
     unit: str
     vertex_count: int
     above: np.ndarray
+    axes: np.ndarray = field(default_factory=lambda: np.eye(3))
+    up: str = "+Y"
+    forward: str = "+Z"
+    frame_found: bool = True
+    end_sites: dict = field(default_factory=dict)
+    rotation_orders: tuple = ()
+
+    @property
+    def is_bvh(self) -> bool:
+        """Read from a BVH hierarchy (no mesh, identity rest rotations)."""
+        return self.path.suffix.lower() == ".bvh"
 
     @property
     def scale(self) -> float:
@@ -86,8 +115,12 @@ class Rig:
 
     @property
     def rest_positions(self) -> np.ndarray:
-        """Rest world position of every joint (m), shape (J, 3)."""
-        return self.rest_world[:, :3, 3] * self.scale
+        """Rest world position of every joint in quadsim's frame (m), shape (J, 3)."""
+        return self.rest_world[:, :3, 3] @ self.axes.T * self.scale
+
+    def rig_frame(self, rotations: np.ndarray) -> np.ndarray:
+        """World rotations (..., 3, 3) in quadsim's frame expressed in the rig's frame."""
+        return self.axes.T @ rotations @ self.axes
 
     @property
     def rest_rotations(self) -> np.ndarray:
@@ -115,9 +148,10 @@ class Rig:
         ndarray, shape (..., J, 3, 3)
             Each rig joint's rotation relative to its parent such that the rig
             joint turns by the same world rotation as the skeleton's joint:
-            ``W_j = world_j R0_j`` with ``R0_j`` its rest world rotation.
+            ``W_j = world_j R0_j`` with ``R0_j`` its rest world rotation
+            (``world_j`` taken into the rig's frame).
         """
-        W = world @ self.rest_rotations
+        W = self.rig_frame(world) @ self.rest_rotations
         out = np.empty_like(W)
         out[..., 0, :, :] = W[..., 0, :, :]
         p = self.parents[1:]
@@ -157,7 +191,18 @@ def _node_matrix(node) -> np.ndarray:
     return M
 
 
-def read_gltf_rig(path, skin: int = 0) -> Rig:
+def foot_indices(names, feet, path) -> list[int] | None:
+    """Indices of the feet given by name, or None; :class:`InputError` for unknown names."""
+    if feet is None:
+        return None
+    missing = [f for f in feet if f not in names]
+    if missing:
+        raise InputError(f"{path}: no joint named {', '.join(map(repr, missing))} "
+                         "(the feet given by hand)")
+    return [list(names).index(f) for f in feet]
+
+
+def read_gltf_rig(path, skin: int = 0, feet=None) -> Rig:
     """Read the rig of skin ``skin`` from a ``.gltf`` or ``.glb`` file.
 
     Raises
@@ -228,8 +273,9 @@ def read_gltf_rig(path, skin: int = 0) -> Rig:
         if n.skin == skin and n.mesh is not None:
             for prim in g.meshes[n.mesh].primitives:
                 verts += g.accessors[prim.attributes.POSITION].count
-    height = float(W[:, Y, 3].max() - W[:, Y, 3].min())
+    frame = detect_frame(W[:, :3, 3], names, parents, foot_indices(names, feet, path))
     up = parent_node.get(order[0])
     return Rig(path=path, names=names, nodes=np.array(order, dtype=np.int64), parents=parents,
-               rest_local=L, rest_world=W, unit=guess_unit(height), vertex_count=verts,
-               above=np.eye(4) if up is None else world_of(up))
+               rest_local=L, rest_world=W, unit=guess_unit(frame.height), vertex_count=verts,
+               above=np.eye(4) if up is None else world_of(up), axes=frame.axes,
+               up=frame.up, forward=frame.forward, frame_found=frame.found)

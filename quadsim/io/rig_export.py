@@ -32,7 +32,7 @@ from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.rig import Rig
 from quadsim.kinematics.rotations import quaternions_from_matrices
 
-__all__ = ["write_into_model"]
+__all__ = ["world_changes", "write_into_model"]
 
 _FLOAT = 5126  # glTF componentType FLOAT
 
@@ -155,14 +155,16 @@ def _unique(names: list[str], taken: set[str]) -> list[str]:
     return out
 
 
-def _world_changes(rig: Rig, motion, root_offset) -> tuple[np.ndarray, np.ndarray]:
-    """The rig joints' world rotations (T, J, 3, 3) and the top joint's world position
-    (T, 3) (m) for a motion of a skeleton that shares joint names with the rig.
+def world_changes(rig: Rig, motion, root_offset) -> tuple[np.ndarray, np.ndarray]:
+    """The rig joints' world rotation changes from rest, shape (T, J, 3, 3), and the top
+    joint's world position, shape (T, 3), both in the rig's own frame (file units), for a
+    motion of a skeleton that shares joint names with the rig.
 
     A rig joint the motion has turns by the motion joint's world rotation; one it
     lacks turns with its nearest ancestor the motion has, and the joints above the
     motion's root keep their rest rotations, the top one moved so that the motion's
-    root joint lands at the motion's root position plus ``root_offset``.
+    root joint lands at the motion's root position plus ``root_offset`` (m, quadsim's
+    frame).
     """
     mine = {n: k for k, n in enumerate(motion.skeleton.names)}
     G = motion.world_rotations()
@@ -180,11 +182,10 @@ def _world_changes(rig: Rig, motion, root_offset) -> tuple[np.ndarray, np.ndarra
     D = np.broadcast_to(np.eye(3), (T, len(rig.names), 3, 3)).copy()
     has = source >= 0
     D[:, has] = G[:, source[has]]
-    W = D @ rig.rest_rotations
     r = rig.names.index(root_name)
     P0 = rig.rest_positions
     top = np.asarray(motion.root_positions, float) + root_offset - (P0[r] - P0[0])
-    return W, top
+    return rig.rig_frame(D), (top @ rig.axes) / rig.scale
 
 
 def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
@@ -251,14 +252,15 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
     inv_above = np.linalg.inv(above)
     offset = np.asarray(root_offset, dtype=float)
     for motion, name in zip(motions, names):
-        W, top = _world_changes(rig, motion, offset)                 # (T, J, 3, 3), (T, 3)
+        D, top = world_changes(rig, motion, offset)                  # (T, J, 3, 3), (T, 3)
+        W = D @ rig.rest_rotations
         L = W.copy()
         p = rig.parents[1:]
         L[:, 1:] = np.swapaxes(W[:, p], -1, -2) @ W[:, 1:]
         L[:, 0] = above_rot.T @ W[:, 0]                              # root: in the node above
         q = quaternions_from_matrices(L)                             # (T, J, 4) w, x, y, z
         q = np.concatenate([q[..., 1:], q[..., :1]], axis=-1)        # glTF: x, y, z, w
-        t = (top / rig.scale) @ inv_above[:3, :3].T + inv_above[:3, 3]
+        t = top @ inv_above[:3, :3].T + inv_above[:3, 3]
         times = np.arange(motion.n_frames, dtype=float) / motion.fps
         time_acc = _accessor(g, blob, times, "SCALAR", with_range=True)
         samplers, channels = [], []

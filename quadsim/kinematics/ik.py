@@ -18,8 +18,11 @@ is solved as
   angle (the heel rises as the leg sweeps back), plus a fold while the foot
   is in swing.
 
-Reachable targets are reached exactly. An unreachable target gives the
-closest pose along the line to it (the pair straightened, never NaN).
+Reachable targets are reached exactly; so is a foot joint's world yaw when
+the posing asks for it (:func:`leg_rows`). An unreachable target gives the
+closest pose along the line to it, never NaN, the pair stretched to
+:data:`PAIR_REACH` of its length (it keeps a bend of a few degrees) and the
+miss reported.
 
 :func:`leg_rows` is the IK, compiled: the posing
 (:mod:`quadsim.locomotion.pose_kernel`) runs it for every frame, and

@@ -90,7 +90,7 @@ class JointEntry:
 @dataclass(frozen=True)
 class CharacterMeta:
     """The ``[character]`` table: ``id``, ``name``, ``species``, ``mass`` (kg), ``sources``,
-    and ``model``: the user's own rigged model (glTF) the character was adopted from,
+    and ``model``: the user's own rig (glTF model or BVH) the character was adopted from,
     its path relative to the character file (an absolute :class:`~pathlib.Path` here)."""
 
     id: str
@@ -325,13 +325,14 @@ def _meta(t: dict, where: str, src: str) -> CharacterMeta:
     model = t.get("model")
     if model is not None:
         if not isinstance(model, str) or not model:
-            raise InputError(f"{src}: character.model must be the path of a .gltf or .glb "
-                             f"file, got {model!r}")
+            raise InputError(f"{src}: character.model must be the path of a .gltf, .glb or "
+                             f".bvh file, got {model!r}")
         base = Path(src).parent if not src.startswith("<") else Path(".")
         model = (base / model).resolve()
-        if model.suffix.lower() not in (".gltf", ".glb") or not model.is_file():
-            raise InputError(f"{src}: character.model: no .gltf or .glb file at {model}; "
-                             "give the rigged model's path relative to the character file")
+        if model.suffix.lower() not in (".gltf", ".glb", ".bvh") or not model.is_file():
+            raise InputError(f"{src}: character.model: no .gltf, .glb or .bvh file at "
+                             f"{model}; give the rigged model's path relative to the "
+                             "character file")
     return CharacterMeta(ident, name, species, float(mass), tuple(sources), model)
 
 
