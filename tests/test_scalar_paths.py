@@ -20,7 +20,7 @@ from quadsim.locomotion import bundles as B
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
-from quadsim.locomotion.feet import LATCH_PROGRESS, feet_rows
+from quadsim.locomotion.feet import feet_rows
 from quadsim.locomotion.footpath import swing_position as compiled_swing_position
 from quadsim.locomotion.plan_kernels import step_constants
 from quadsim.locomotion.pose_kernel import pack_plan
@@ -99,11 +99,9 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     theta_td[0, 0] = theta[0, 0] - 1.0
     planted = rng.normal(0, 1, (n, 4, 3))
     liftoff = rng.normal(0, 1, (n, 4, 3))
-    latched = rng.normal(0, 1, (n, 4, 3))  # touchdown points held from earlier steps
-    latched[..., 1] = 0.0
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
-                                                   liftoff, latched)))
+                                                   liftoff)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -120,7 +118,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     out = B.plan_outputs(n)
     _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
     feet, fold = out.feet, out.fold
-    st, ss, lo, td, pl, lf, _ = feet_state
+    st, ss, lo, td, pl, lf = feet_state
     assert not st[0, 0] and lo[0, 0] <= theta[0, 0] < td[0, 0]
     np.testing.assert_array_equal(lf[0, 0], planted[0, 0])
     # the expected targets and swing positions, from the array functions
@@ -128,14 +126,11 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     np.testing.assert_allclose(ss, s, atol=TOL)
     stance_time = np.maximum(duty, np.minimum(final, 1 - MIN_SWING)) / freq
     lead = np.minimum(0.5 * stance_time, 0.85 * half / np.maximum(v, 1e-6))
-    tau = np.maximum(td - theta, 0) / (2 * np.pi * freq[:, None]) + lead[:, None]
+    tau = np.maximum((td - theta) / (2 * np.pi * freq[:, None]) + lead[:, None] + 0.5 / 60, 0)
     girdle = np.array([1, 1, 0, 0])
     kp, kh_new = arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     target = kp + rotate_y(offset, kh_new)
     target[..., 1] = 0.0
-    # late in swing the touchdown point is the one held, not the one planned now
-    late = s >= LATCH_PROGRESS
-    target[late] = latched[late]
     step = np.linalg.norm(target - lf, axis=-1)
     height = np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
     want = swing_position(lf, target, height, s)

@@ -166,7 +166,6 @@ class FeetState(NamedTuple):
     theta_td: np.ndarray  #: phase of the planned touchdown (rad)
     planted: np.ndarray   #: (N, 4, 3) where each planted foot is (m)
     liftoff: np.ndarray   #: (N, 4, 3) where each swing began (m)
-    target: np.ndarray    #: (N, 4, 3) each swing's touchdown point, latched late in swing (m)
 
 
 class BodyState(NamedTuple):

@@ -33,10 +33,6 @@ MIN_STANCE_PHASE = 1e-9
 MIN_LEAD_SPEED = 1e-6
 #: A swing has landed once its progress is within this of 1.
 TOUCHDOWN_EPS = 1e-12
-#: From this swing progress on the touchdown point is held where it was
-#: planned (the foot commits to its landing spot, so the path's end stands
-#: still while the foot comes down onto it).
-LATCH_PROGRESS = 0.6
 #: A swing foot stays within this fraction of its leg's reach of the leg's
 #: top joint (the leg keeps a bend in swing rather than locking straight),
 #: fully until this swing progress, the hold then easing off so the foot
@@ -62,7 +58,7 @@ def feet_rows(state, scratch, reach, sc, out):
     reach : ReachTables
         ``foot_offset``.
     sc : StepConstants
-        ``reach_margin``.
+        ``reach_margin`` and ``dt``.
     out : PlanOutputs
         Receives ``feet`` (N, 4, 3) foot positions (m) and ``fold`` (N, 4).
     """
@@ -70,7 +66,7 @@ def feet_rows(state, scratch, reach, sc, out):
     v, yaw_rate = state.motion.speed, state.motion.yaw_rate
     ft = state.feet
     stance, swing_s, theta_lo, theta_td = ft.stance, ft.swing_s, ft.theta_lo, ft.theta_td
-    planted, liftoff, target = ft.planted, ft.liftoff, ft.target
+    planted, liftoff = ft.planted, ft.liftoff
     keys, key_heading = scratch.keys, scratch.key_heading
     foot_offset = reach.foot_offset
     feet, fold = out.feet, out.fold
@@ -107,16 +103,20 @@ def feet_rows(state, scratch, reach, sc, out):
                     feet[n, i, c] = planted[n, i, c]
                 continue
             g = 1 if i < 2 else 0  # the fore legs follow the fore key point
-            tau = max(theta_td[n, i] - theta[n, i], 0.0) / omega + lead
+            # time to the planned touchdown, negative on the frame that lands
+            # past it, so the touchdown point stands still in the world under
+            # a steady command (clamped at the planned instant, it moved
+            # ahead with the body on the landing frame: the foot skidded onto
+            # the ground at 0.7-0.9 of the body's speed); plus the lead, and
+            # the half frame by which a foot lands, on average, after its
+            # planned instant (so the stance sits where it would at any frame
+            # rate)
+            tau = max((theta_td[n, i] - theta[n, i]) / omega + lead + 0.5 * sc.dt, 0.0)
             dx, dz, kh = arc_step(key_heading[n, g], v[n], yaw_rate[n], tau)
             cs, sn = math.cos(kh), math.sin(kh)
             ox, oz = foot_offset[n, i, 0], foot_offset[n, i, 2]
             tx = (keys[n, g, 0] + dx) + (cs * ox + sn * oz)
             tz = (keys[n, g, 2] + dz) + (-sn * ox + cs * oz)
-            if swing_s[n, i] < LATCH_PROGRESS:
-                target[n, i, 0], target[n, i, 1], target[n, i, 2] = tx, 0.0, tz
-            else:
-                tx, tz = target[n, i, 0], target[n, i, 2]
             ax, ay, az = liftoff[n, i, 0], liftoff[n, i, 1], liftoff[n, i, 2]
             ddx, ddy, ddz = tx - ax, 0.0 - ay, tz - az
             step_len = math.sqrt(ddx * ddx + ddy * ddy + ddz * ddz)

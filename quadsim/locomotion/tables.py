@@ -217,7 +217,7 @@ class CharacterPlan:
                           np.zeros(1, dtype=bool), np.zeros(1), np.zeros(1), new_gait_rows(1),
                           params),
             FeetState(np.ones((1, 4), dtype=bool), np.zeros((1, 4)), theta.copy(),
-                      theta.copy(), feet[None].copy(), feet[None].copy(), feet[None].copy()),
+                      theta.copy(), feet[None].copy(), feet[None].copy()),
             BodyState(np.zeros(1), np.zeros(1), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]),
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
