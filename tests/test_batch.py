@@ -36,7 +36,7 @@ def _script(character, k: int) -> Script:
             Command(speed=0.2 * top, turn_rate=-0.4),
             Command(speed=0.0),
             Command(speed=0.4 * top, gait=(None, "walk")[k]))
-    return Script((0.0, 0.8, 1.6, 2.4, 3.2, 4.0, 5.0), cmds)
+    return Script((0.0, 0.8, 1.6, 2.4, 3.8, 4.6, 5.6), cmds)
 
 
 def _row_of(batch: BatchController, j: int) -> tuple[int, int]:
@@ -54,7 +54,7 @@ def test_mixed_batch_equals_each_character_alone():
     rows = [(chars[CHARACTERS[i % 4]], i // 4, 7 * i + 1, ("walk", None)[i // 4])
             for i in range(8)]
     scripts = [_script(ch, k) for ch, k, _, _ in rows]
-    dt, seconds = 1.0 / 60.0, 6.0
+    dt, seconds = 1.0 / 60.0, 6.6
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         batch = BatchController([r[0] for r in rows], dt=dt, seeds=[r[2] for r in rows],

@@ -314,7 +314,7 @@ def test_horse_gait_overrides_are_real_speed_ranges():
     c = load_character("horse")
     over = c.gait_overrides
     allowed = {"speed", "duty", "phase", "froude", "stride", "swing_height", "spine",
-               "spine_deg"}
+               "spine_deg", "drop"}
     assert set(over) <= set(HORSE_GAITS)
     for gait, table in over.items():
         assert set(table) <= allowed, gait

@@ -109,10 +109,12 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
         B.CpgState(theta.copy(), z4, z, z, freq.copy()),
         B.ScheduleState(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, bool), z, z,
                         params, params),
-        feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2))))
+        feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2)),
+                                np.zeros((n, 2)), np.zeros((n, 2)), z.copy(), np.zeros((n, 2))))
     scratch = B.StepScratch(z, z, z4, theta - 0.1, keys, kh, final, np.zeros((n, 4), bool), half)
     reach = B.ReachTables(np.zeros(2), np.zeros((n, 2, 4)), np.zeros((n, 2)),
-                          np.zeros((n, 4, 2)), offset)
+                          np.zeros((n, 4, 2)), offset, np.zeros((n, 4)), np.zeros((n, 4)),
+                          np.full((n, 4), np.inf), np.zeros((n, 4)))
     out = B.plan_outputs(n)
     _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
     feet, fold = out.feet, out.fold
@@ -124,7 +126,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     np.testing.assert_allclose(ss, s, atol=TOL)
     stance_time = np.maximum(duty, np.minimum(final, 1 - MIN_SWING)) / freq
     lead = np.minimum(0.5 * stance_time, 0.85 * half / np.maximum(v, 1e-6))
-    tau = np.maximum(td - theta, 0) / (2 * np.pi * freq[:, None]) + lead[:, None]
+    tau = np.maximum((td - theta) / (2 * np.pi * freq[:, None]) + lead[:, None] + 0.5 / 60, 0)
     girdle = np.array([1, 1, 0, 0])
     kp, kh_new = arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     target = kp + rotate_y(offset, kh_new)

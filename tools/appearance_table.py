@@ -9,7 +9,7 @@ data-driven horse at four speeds); the first 3 s are left out. Columns (see
 :mod:`quadsim.analysis.appearance`): stride over hip height against
 Alexander's law, scaled cadence, trunk pitch, heave and spine flexion ranges,
 head pitch range, the deepest toe tip and its slide, foot speed over body
-speed at touchdown and after lift-off, the flight phases' vertical
+speed at touchdown (ground and descent) and after lift-off, the flight phases' vertical
 acceleration (median, g), peak joint speed and the worst hinge's locked share
 of swing frames.
 """
@@ -32,6 +32,7 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
            ("heave", "trunk_heave_over_h", ".3f"), ("spine", "spine_flexion_range_deg", ".1f"),
            ("head", "head_pitch_range_deg", ".1f"), ("toe-", "toe_below_ground_mm", ".1f"),
            ("slide", "toe_slide_mm_p90", ".1f"), ("td", "touchdown_speed_ratio_p90", ".2f"),
+           ("tdv", "touchdown_descent_ratio_p90", ".2f"),
            ("lo", "liftoff_speed_ratio_p90", ".2f"), ("fl g", "flight_g", ".2f"),
            ("w max", "peak_joint_speed_deg_s", ".0f"), ("lock%", "locked_pct", ".1f")]
 

@@ -52,6 +52,15 @@ from quadsim.skeleton.motion import Motion
 
 FPS = 60.0
 TAKE_SECONDS = 8.0
+#: A cycle whose ends differ by up to this (deg, any joint) is looped: at 60 fps
+#: a stride is not a whole number of frames, and the swing joints turn up to
+#: 2,000 deg/s, several degrees in the half frame a cut can miss by.
+BAKE_LOOP_TOLERANCE_DEG = 15.0
+#: ... and whose root heights differ by up to this (m): the trunk rises and
+#: falls with the support (several cm a stride), and a touchdown measured a
+#: few ms off moves the cut's ends by a centimetre or two. The residual is
+#: spread over the cycle either way (:func:`~quadsim.horse.database.cut_cycles`).
+BAKE_ROOT_TOLERANCE = 0.05
 G = 9.81
 #: (gait in the procedural engine, clip gait, speed m/s, gait-table overrides):
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
@@ -142,7 +151,9 @@ def bake(out: Path) -> list[str]:
     for proc, gait, v, over in CLIPS:
         take = simulate(_with_overrides(horse, proc, over), Command(speed=v, gait=proc),
                         TAKE_SECONDS, FPS)
-        cyc = cut_cycles(take, character=horse, where=f"{gait} {v} m/s take")[0]
+        cyc = cut_cycles(take, character=horse, where=f"{gait} {v} m/s take",
+                         loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
+                         root_tolerance=BAKE_ROOT_TOLERANCE)[0]
         name = f"{gait}_{v:.1f}"
         write_bvh(cyc.motion, out / f"{name}.bvh", precision=6)
         td = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in cyc.touchdown)))

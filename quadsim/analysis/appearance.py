@@ -16,7 +16,9 @@ so it works on any quadruped BVH:
   the head's pitch (range per stride);
 - **contacts**: the toe tip (the foot bone's end) below the ground and its
   sliding during stance, the foot's ground speed on the touchdown frame and
-  on the first frame after lift-off, relative to the body's speed;
+  on the first frame after lift-off, relative to the body's speed, and its
+  descent speed on the touchdown frame (a foot dropped onto the ground from
+  out of reach), relative to the body's speed too;
 - **flight**: the trunk's vertical acceleration in every flight phase (no
   foot down) of at least :data:`MIN_FLIGHT_FRAMES` frames, from a parabola
   fitted to the girdles' mid-point height, in units of g;
@@ -162,7 +164,7 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         ``trunk_heave_over_h``, ``spine_flexion_range_deg``,
         ``head_pitch_range_deg``, ``toe_below_ground_mm`` (deepest),
         ``toe_slide_mm_p90``, ``touchdown_speed_ratio_p90``,
-        ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
+        ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
         per flight phase; -1 is a ballistic fall), ``peak_joint_speed_deg_s``
         and its ``peak_joint``, ``locked_swing_fraction`` (worst hinge) and its
         ``locked_joint``.
@@ -206,8 +208,9 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
     head = _head_pitch(motion, Pall, a)[k0:]
 
     # contacts: toe tips and foot speeds at the events
-    slides, below, td_ratio, lo_ratio = [], [], [], []
+    slides, below, td_ratio, td_down, lo_ratio = [], [], [], [], []
     fvel = np.linalg.norm(np.diff(feet[..., [X, Z]], axis=0), axis=-1) * fps  # (T-1, 4)
+    fdown = -np.diff(feet[..., Y], axis=0) * fps  # (T-1, 4), descent speed
     for i in range(4):
         for s, e in _runs(contacts[:, i]):
             tip = toes[s:e, i]
@@ -216,6 +219,7 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
                                                       axis=1))))
             if s > 0 and body_speed[s] > 0.05:
                 td_ratio.append(fvel[s - 1, i] / body_speed[s])
+                td_down.append(max(fdown[s - 1, i], 0.0) / body_speed[s])
             if e < len(P) and body_speed[e - 1] > 0.05:
                 lo_ratio.append(fvel[e - 1, i] / body_speed[e - 1])
 
@@ -256,6 +260,7 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         "toe_below_ground_mm": 1000.0 * max(below) if below else None,
         "toe_slide_mm_p90": None if not slides else 1000.0 * _pct(slides, 90),
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),
+        "touchdown_descent_ratio_p90": _pct(td_down, 90),
         "liftoff_speed_ratio_p90": _pct(lo_ratio, 90),
         "flights": len(accel),
         "flight_accel_g": [float(x) for x in accel],
@@ -282,7 +287,8 @@ def format_appearance(report: dict) -> str:
         f"{f(report['head_pitch_range_deg'], '.1f')} deg",
         f"toe tip: deepest {f(report['toe_below_ground_mm'], '.1f')} mm below ground, slide p90 "
         f"{f(report['toe_slide_mm_p90'], '.1f')} mm; foot speed / body speed at touchdown p90 "
-        f"{f(report['touchdown_speed_ratio_p90'], '.2f')}, after lift-off "
+        f"{f(report['touchdown_speed_ratio_p90'], '.2f')} (descending "
+        f"{f(report['touchdown_descent_ratio_p90'], '.2f')}), after lift-off "
         f"{f(report['liftoff_speed_ratio_p90'], '.2f')}",
         f"flight phases {report['flights']}: vertical acceleration "
         + (", ".join(f"{x:+.2f}" for x in acc[:8]) + (" ..." if len(acc) > 8 else "") + " g"

@@ -167,7 +167,7 @@ class Cycle:
 def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                loop_tolerance_deg: float = LOOP_TOLERANCE_DEG,
                steady_tolerance: float = 0.03, character: Character | None = None,
-               where: str = "take") -> list[Cycle]:
+               where: str = "take", root_tolerance: float = 0.02) -> list[Cycle]:
     """Cut steady, looped stride cycles out of a long take by its foot contacts.
 
     Contacts are measured from the foot positions
@@ -194,7 +194,7 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         When the take has no two touchdowns of the reference foot, no steady
         cycle, or a cycle that does not loop (first pose and the pose one
         period later differ by more than ``loop_tolerance_deg`` in any joint,
-        or the root height by more than 2 cm).
+        or the root height by more than ``root_tolerance`` m, default 2 cm).
     """
     if motion.foot_joints is None:
         raise InputError(f"{where}: the motion does not name its foot joints")
@@ -222,14 +222,15 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         root, rot = sample_motion(motion, src)
         err = float(pose_distance_deg(rot[0], rot[-1]))
         dh = float(abs(root[0, 1] - root[-1, 1]))
-        cands.append((max(err / loop_tolerance_deg, dh / 0.02), k, t0, t1, n, root, rot, err, dh))
+        cands.append((max(err / loop_tolerance_deg, dh / root_tolerance), k, t0, t1, n, root,
+                      rot, err, dh))
     cands.sort(key=lambda x: x[0])
     if cands[0][0] > 1.0:
         _, k, t0, t1, n, root, rot, err, dh = cands[0]
         raise InputError(
             f"{where}: cannot loop a cycle: the best, at {t0:.3f}-{t1:.3f} s, has first and "
             f"last pose differing by {err:.1f} deg (allowed {loop_tolerance_deg}) and root "
-            f"heights by {dh * 100:.1f} cm (allowed 2)")
+            f"heights by {dh * 100:.1f} cm (allowed {root_tolerance * 100:g})")
     out = []
     for score, k, t0, t1, n, root, rot, err, dh in sorted(
             [c for c in cands if c[0] <= 1.0][:count], key=lambda x: x[2]):

@@ -14,7 +14,9 @@ import math
 
 import numpy as np
 
-from quadsim.locomotion.rowmath import ahead_of_mid, inner, interp_leg
+from quadsim.frames import GRAVITY
+from quadsim.locomotion.cpg import TWO_PI
+from quadsim.locomotion.rowmath import ahead_of_mid, frac, inner, interp_leg
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -39,6 +41,61 @@ TAIL_YAW_FROM_SWAY = -0.5
 MIN_STANCE_WIDTH = 1e-3
 #: Least duty factor the support measure divides by.
 MIN_DUTY = 1e-3
+#: The trunk's vertical motion: its centre is a mass the legs hold up. A
+#: stance leg pushes with a half sine over its stance whose impulse carries a
+#: quarter of the weight over a stride (``g T / 4``), the centre falls at
+#: ``g`` while no foot is down -- every flight is ballistic -- and, only while
+#: a foot is down, a weak spring and damper (natural frequency this fraction
+#: of the stride frequency, damping ratio below) keep it about its standing
+#: height.
+HEAVE_HOLD_PER_STRIDE = 0.35
+HEAVE_DAMPING = 0.8
+#: The centre's rise is at most this fraction of the hip height either way.
+MAX_HEAVE = 0.2
+#: The trunk's pitch: the fore legs' pushes lift the nose and the hind legs'
+#: the tail, this much per m/s^2 of push over the body length (rad/s^2 per
+#: (m/s^2 / m)); a spring and damper (natural frequency this fraction of the
+#: stride frequency, damping ratio below) return it to level. The
+#: diagonal pairs of the trot push fore and hind alike and barely rock it;
+#: the canter and gallops, fore and hind in turn, rock it nose-up and
+#: nose-down.
+PITCH_TORQUE = 1.2
+PITCH_HOLD_PER_STRIDE = 0.6
+PITCH_DAMPING = 0.5
+#: The flexing gaits (walk, trot, pace) rock by this fraction of it.
+FLEX_ROCK = 0.4
+#: The rocking is at most this (rad) either way.
+MAX_ROCK = 0.35
+#: In the flexing gaits (walk, trot, pace) the trunk also pitches by this
+#: fraction of the spine's compress/stretch angle.
+PITCH_FROM_FLEX = 0.1
+
+
+#: A planted foot is kept within this fraction of its leg's reach.
+STANCE_REACH = 0.97
+
+
+@inner
+def _reach_cap(n, g, left, right, ft, keys, key_heading, feet, reach, dropped, flex):
+    """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
+    (``dropped`` m below standing) with its planted feet ``left``, ``right``
+    within :data:`STANCE_REACH` of their legs' reach (infinite with none
+    planted): each leg's top over the ground point of its key and offsets,
+    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state."""
+    cap = math.inf
+    c, sn = math.cos(key_heading[n, g]), math.sin(key_heading[n, g])
+    for i in (left, right):
+        if not ft.stance[n, i]:
+            continue
+        fx, fz = feet[n, i, 0], feet[n, i, 2]
+        ox, oz = reach.foot_offset[n, i, 0], reach.top_ahead[n, i]
+        dx = fx - (keys[n, g, 0] + c * ox + sn * oz)
+        dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
+        r = STANCE_REACH * reach.radius[n, i]
+        high = math.sqrt(max(r * r - dx * dx - dz * dz, 0.0))
+        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex
+        cap = min(cap, high - top)
+    return cap
 
 
 @inner
@@ -87,7 +144,37 @@ def body_rows(body, state, scratch, reach, sc, out):
             if stance[n, i]:
                 support += math.sin(math.pi * min(max(u[n, i] / sdut, 0.0), 1.0))
         drop = params.drop[n]
-        bob = BOB_FRACTION * drop * body.hip_height[n] * (0.5 - support / 4)
+        h = body.hip_height[n]
+        bob = BOB_FRACTION * drop * h * (0.5 - support / 4) * (1.0 - bound)
+        # the trunk's centre, pushed up by the legs' stances and falling at g
+        # when free, and its rocking. A leg's push over the step is the
+        # integral of its half sine between the stride fractions before and
+        # after the step (exact, however few frames a stance spans).
+        f = state.cpg.freq[n]
+        dv_leg = GRAVITY / (8.0 * f)
+        z, w = bs.heave, bs.heave_rate
+        dv = -GRAVITY * dt
+        fore_hind = 0.0
+        held = False
+        for i in range(4):
+            held = held or stance[n, i]
+            u1 = u[n, i]
+            u0 = frac(scratch.theta_prev[n, i] / TWO_PI)
+            c0 = math.cos(math.pi * min(u0 / sdut, 1.0))
+            c1 = math.cos(math.pi * min(u1 / sdut, 1.0))
+            push = dv_leg * (c0 - c1 if u0 <= u1 else c0 + 2.0 - c1)  # wrapped: a touchdown
+            dv += push
+            fore_hind += push if i < 2 else -push
+        if held:
+            wn = 2.0 * math.pi * HEAVE_HOLD_PER_STRIDE * f
+            dv -= (wn * wn * z[n, 0] + 2.0 * HEAVE_DAMPING * wn * w[n, 0]) * dt
+        w[n, 0] += dv
+        z[n, 0] = min(max(z[n, 0] + w[n, 0] * dt, -MAX_HEAVE * h), MAX_HEAVE * h)
+        wp = 2.0 * math.pi * PITCH_HOLD_PER_STRIDE * f
+        torque = PITCH_TORQUE * (bound + FLEX_ROCK * (1.0 - bound))
+        w[n, 1] += (torque * fore_hind / body.body_length[n]
+                    - (wp * wp * z[n, 1] + 2.0 * PITCH_DAMPING * wp * w[n, 1]) * dt)
+        z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
         # girdles' headings' cosines and sines taken once)
         c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
@@ -112,9 +199,23 @@ def body_rows(body, state, scratch, reach, sc, out):
         drops_now[n, 1] += (df - drops_now[n, 1]) * sc.a_drop
         pelvis = body.pelvis_height[n]
         target_h = pelvis * (1.0 - drops_now[n, 0]) + bob
-        bs.height[n] += (target_h - bs.height[n]) * sc.a_drop
-        out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis,
-                                  body.body_length[n])
+        bs.base_height[n] += (target_h - bs.base_height[n]) * sc.a_drop
+        # the rises about the trunk's centre, their difference scaled; a
+        # girdle rises no higher than its planted feet reach
+        mid = z[n, 0]
+        half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
+        flex = bs.spine_smooth[n]
+        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, key_heading, feet,
+                                            reach, pelvis * drops_now[n, 0], flex))
+        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, key_heading, feet,
+                                            reach, pelvis * drops_now[n, 1], flex))
+        bs.height[n] = bs.base_height[n] + rise_h
+        bs.rise[n, 0] = rise_h
+        bs.rise[n, 1] = rise_f
+        flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
+        # (a positive pitch tips the nose down)
+        out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis
+                                  - (rise_f - rise_h), body.body_length[n]) + flexing
         # girdle sway from where the left and right feet are
         for g, (left, right) in enumerate(((2, 3), (0, 1))):  # hind, fore
             width = max(abs(lx[left] - lx[right]), MIN_STANCE_WIDTH)

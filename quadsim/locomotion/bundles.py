@@ -85,6 +85,10 @@ class ReachTables(NamedTuple):
     sweep_min: np.ndarray    #: (N, D) the worst leg's
     sweep_cols: np.ndarray   #: (N, 4, D) half_sweep, leg-major
     foot_offset: np.ndarray  #: (N, 4, 3) mid-stance foot offsets from the key points (m)
+    top_height: np.ndarray   #: (N, 4) each leg's top joint's height at rest (m)
+    top_ahead: np.ndarray    #: (N, 4) ... and how far ahead of its key point (m)
+    radius: np.ndarray       #: (N, 4) how far each leg's foot reaches from its top joint (m)
+    flex_lift: np.ndarray    #: (N, 4) each top joint's rise per rad of spine flexion (m/rad)
 
 
 class StepConstants(NamedTuple):
@@ -170,8 +174,12 @@ class BodyState(NamedTuple):
     spine_angle: np.ndarray   #: the bounding spine's machine angle (rad)
     spine_smooth: np.ndarray  #: spine pitch after its filter (rad)
     drops_now: np.ndarray     #: (N, 2) hind and fore girdle drops
-    height: np.ndarray        #: pelvis height (m)
+    height: np.ndarray        #: pelvis height (m): ``base_height`` plus the hind girdle's rise
     tail: np.ndarray          #: (N, T, 2) tail joints' (pitch, yaw) (rad)
+    heave: np.ndarray         #: (N, 2) the trunk centre's rise (m) and rocking (rad)
+    heave_rate: np.ndarray    #: (N, 2) their rates (m/s, rad/s)
+    base_height: np.ndarray   #: pelvis height the drops set, after their filter (m)
+    rise: np.ndarray          #: (N, 2) hind and fore girdles' rise over the drops (m)
 
 
 class PlanState(NamedTuple):

@@ -33,6 +33,12 @@ MIN_STANCE_PHASE = 1e-9
 MIN_LEAD_SPEED = 1e-6
 #: A swing has landed once its progress is within this of 1.
 TOUCHDOWN_EPS = 1e-12
+#: A swing foot stays within this fraction of its leg's reach of the leg's
+#: top joint (the leg keeps a bend in swing rather than locking straight),
+#: fully until this swing progress, the hold then easing off so the foot
+#: still lands on its touchdown point.
+SWING_REACH = 0.98
+REACH_HOLD_UNTIL = 0.8
 
 
 @inner
@@ -52,7 +58,7 @@ def feet_rows(state, scratch, reach, sc, out):
     reach : ReachTables
         ``foot_offset``.
     sc : StepConstants
-        ``reach_margin``.
+        ``reach_margin`` and ``dt``.
     out : PlanOutputs
         Receives ``feet`` (N, 4, 3) foot positions (m) and ``fold`` (N, 4).
     """
@@ -97,7 +103,15 @@ def feet_rows(state, scratch, reach, sc, out):
                     feet[n, i, c] = planted[n, i, c]
                 continue
             g = 1 if i < 2 else 0  # the fore legs follow the fore key point
-            tau = max(theta_td[n, i] - theta[n, i], 0.0) / omega + lead
+            # time to the planned touchdown, negative on the frame that lands
+            # past it, so the touchdown point stands still in the world under
+            # a steady command (clamped at the planned instant, it moved
+            # ahead with the body on the landing frame: the foot skidded onto
+            # the ground at 0.7-0.9 of the body's speed); plus the lead, and
+            # the half frame by which a foot lands, on average, after its
+            # planned instant (so the stance sits where it would at any frame
+            # rate)
+            tau = max((theta_td[n, i] - theta[n, i]) / omega + lead + 0.5 * sc.dt, 0.0)
             dx, dz, kh = arc_step(key_heading[n, g], v[n], yaw_rate[n], tau)
             cs, sn = math.cos(kh), math.sin(kh)
             ox, oz = foot_offset[n, i, 0], foot_offset[n, i, 2]
@@ -116,3 +130,19 @@ def feet_rows(state, scratch, reach, sc, out):
                 continue
             swing_into((ax, ay, az), (tx, 0.0, tz), height, s, feet, n, i)
             fold[n, i] = math.sin(math.pi * s) ** 2
+            # within reach of the leg's top (where the body left it last step)
+            oz = reach.top_ahead[n, i]
+            px = keys[n, g, 0] + cs * ox + sn * oz
+            pz = keys[n, g, 2] - sn * ox + cs * oz
+            py = reach.top_height[n, i] * (1.0 - state.body.drops_now[n, g]) \
+                + state.body.rise[n, g] + reach.flex_lift[n, i] * state.body.spine_smooth[n]
+            rx, ry, rz = feet[n, i, 0] - px, feet[n, i, 1] - py, feet[n, i, 2] - pz
+            r = math.sqrt(rx * rx + ry * ry + rz * rz)
+            rmax = SWING_REACH * reach.radius[n, i]
+            if r > rmax:
+                w = 1.0 if s <= REACH_HOLD_UNTIL else max(
+                    1.0 - (s - REACH_HOLD_UNTIL) / (1.0 - REACH_HOLD_UNTIL), 0.0)
+                k = 1.0 - w * (1.0 - rmax / r)
+                feet[n, i, 0] = px + rx * k
+                feet[n, i, 1] = py + ry * k
+                feet[n, i, 2] = pz + rz * k

@@ -60,13 +60,13 @@ def _segment(p0, p1, p2, p3, t):
 #: Knots of the swing path: fraction of the step covered and fraction of the
 #: clearance, first and last only shaping the end tangents.
 SWING_KNOTS = np.array([
-    [-0.30, -0.75],
+    [0.20, 0.00],
     [0.00, 0.00],
-    [0.30, 0.75],
-    [0.62, 1.00],
-    [0.88, 0.70],
+    [0.20, 0.75],
+    [0.58, 1.00],
+    [0.93, 0.60],
     [1.00, 0.00],
-    [1.00, -0.50],
+    [0.93, 0.20],
 ])
 
 
@@ -74,12 +74,14 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
                          height: np.ndarray) -> np.ndarray:
     """Control points of a swing path, shape (..., 7, 3).
 
-    The foot leaves the ground steeply and quickly -- faster than the body
-    moves, whatever the duty factor, so the leg stays within reach -- swings
-    through the clearance ``height`` past the middle of the step, and comes
-    down steeply with its forward speed easing to nothing at touchdown (a
-    paw that lands without skidding). Each of the four segments between the
-    knots :data:`SWING_KNOTS` takes a quarter of the swing.
+    The foot peels off the ground straight up, its forward speed rising from
+    nothing (the end knots mirror their neighbours' forward fraction, so the
+    path's forward tangent is zero at both ends), swings through the
+    clearance ``height`` past the middle of the step, and comes down with its
+    forward speed easing to nothing at touchdown (the limb retracts: the
+    foot lands at ground speed, without skidding). Each of the four
+    segments between the knots :data:`SWING_KNOTS` takes a quarter of the
+    swing.
 
     Parameters
     ----------

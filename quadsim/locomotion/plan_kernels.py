@@ -424,7 +424,11 @@ def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
                   reach._replace(half_sweep=reach.half_sweep[rows],
                                  sweep_min=reach.sweep_min[rows],
                                  sweep_cols=reach.sweep_cols[rows],
-                                 foot_offset=reach.foot_offset[rows]),
+                                 foot_offset=reach.foot_offset[rows],
+                                 top_height=reach.top_height[rows],
+                                 top_ahead=reach.top_ahead[rows],
+                                 radius=reach.radius[rows],
+                                 flex_lift=reach.flex_lift[rows]),
                   sc, take_rows(state, rows), take_rows(out, rows))
 
     run_blocks(block, n)

@@ -19,6 +19,7 @@ import numpy as np
 
 from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
+from quadsim.kinematics.rotations import matrices_yaw_pitch
 from quadsim.locomotion.bundles import (
     BodyConstants,
     BodyState,
@@ -37,6 +38,7 @@ from quadsim.locomotion.gaits import STAND, Gait, auto_gaits, gait_ids, gait_tab
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.transition import HYSTERESIS, gait_tables
 from quadsim.skeleton.character import Character
+from quadsim.skeleton.fk import forward_kinematics
 
 #: Body drops (fractions of the pelvis height) at which each leg's reach is measured.
 DROPS = np.linspace(0.0, 0.3, 13)
@@ -74,6 +76,24 @@ def initial_oscillators(gait: Gait, seed: int):
     r = np.full(4, 1.0) + rng.normal(0.0, 0.02, 4)
     theta_s = np.asarray(theta[2] + rng.normal(0.0, 0.05))
     return theta, r, theta_s
+
+
+def flexion_lift(character: Character, joints: np.ndarray, bend: float = 0.1) -> np.ndarray:
+    """How far each of ``joints`` rises per rad of spine flexion (m/rad), the
+    trunk posed as the posing kernel bends it (the pelvis tilted back by half
+    the bend, the spine joints sharing it), by central difference over
+    ``+-bend`` rad."""
+    sk = character.skeleton
+    spine = list(character.spine[1:])
+    K = len(spine)
+    heights = []
+    for b in (bend, -bend):
+        local = np.broadcast_to(np.eye(3), (sk.n_joints, 3, 3)).copy()
+        local[0] = matrices_yaw_pitch(0.0, -0.5 * b)
+        local[spine] = matrices_yaw_pitch(np.zeros(K), np.full(K, b / K))
+        _, P = forward_kinematics(sk, local[None], sk.rest_positions[0][None])
+        heights.append(P[0, joints, Y])
+    return (heights[0] - heights[1]) / (2.0 * bend)
 
 
 def measure_sweeps(character: Character, poser: Poser, drops: np.ndarray) -> np.ndarray:
@@ -129,6 +149,13 @@ class CharacterPlan:
         Each leg's half stance sweep per drop (m), non-decreasing.
     foot_offset : ndarray, shape (4, 3)
         Mid-stance foot offsets from the key points (m).
+    top_height, top_ahead, radius : ndarray, shape (4,)
+        Each leg's top joint's rest height, how far ahead of its key point
+        it stands, and how far its foot reaches from it (the nearer end of
+        the stance sweep at the standing height) (m).
+    flex_lift : ndarray, shape (4,)
+        How far each leg's top joint rises per rad of spine flexion
+        (:func:`flexion_lift`) (m/rad).
     """
 
     character: Character
@@ -141,6 +168,10 @@ class CharacterPlan:
     drops: np.ndarray
     half_sweep: np.ndarray
     foot_offset: np.ndarray
+    top_height: np.ndarray
+    top_ahead: np.ndarray
+    radius: np.ndarray
+    flex_lift: np.ndarray
 
     @property
     def max_speed(self) -> float:
@@ -153,7 +184,11 @@ class CharacterPlan:
         return ReachTables(np.array(self.drops, dtype=float), hs[None].copy(),
                            np.ascontiguousarray(hs.min(axis=1)[None]),
                            np.ascontiguousarray(np.swapaxes(hs, 0, 1)[None]),
-                           np.array(self.foot_offset[None], dtype=float))
+                           np.array(self.foot_offset[None], dtype=float),
+                           np.array(self.top_height[None], dtype=float),
+                           np.array(self.top_ahead[None], dtype=float),
+                           np.array(self.radius[None], dtype=float),
+                           np.array(self.flex_lift[None], dtype=float))
 
     def gait_id(self, name: str) -> int:
         return self.ids.index(name)
@@ -185,7 +220,8 @@ class CharacterPlan:
                       theta.copy(), feet[None].copy(), feet[None].copy()),
             BodyState(np.zeros(1), np.zeros(1), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]),
-                      np.zeros((1, len(ch.tail), 2))))
+                      np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
+                      np.array([float(self.body.pelvis_height[0])]), np.zeros((1, 2))))
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -212,6 +248,15 @@ def character_plan(character: Character) -> CharacterPlan:
     foot_offset[:, Y] = 0.0
     foot_offset[:, 0] = feet[:, 0]  # lateral offset from the mid-line
     sweep = np.maximum.accumulate(measure_sweeps(ch, poser, DROPS), axis=0)
+    tops = np.array([leg.chain[0] for leg in ch.legs])
+    top_height = P[tops, Y]
+    # the key points' z: the hind and fore pair tops' mean
+    key_z = np.array([np.mean(P[pair_top[:2], 2])] * 2 + [np.mean(P[pair_top[2:], 2])] * 2)
+    top_ahead = P[tops, 2] - key_z
+    # the foot at mid-stance on the ground, the sweep's ends fore and aft
+    mid = key_z + foot_offset[:, 2]
+    radius = np.minimum(np.hypot(mid + sweep[0] - P[tops, 2], top_height),
+                        np.hypot(mid - sweep[0] - P[tops, 2], top_height))
     sweep.setflags(write=False)
     slowest = gaits[auto[0]]
 
@@ -235,7 +280,8 @@ def character_plan(character: Character) -> CharacterPlan:
         start_speed=row(slowest.speed_range[1]), n_tail=row(max(len(ch.tail), 1)),
         hysteresis=row(HYSTERESIS))
     out = CharacterPlan(ch, poser, gaits, auto, ids, gait_tables([(gaits, auto)], ids), body,
-                        np.ascontiguousarray(DROPS, dtype=float), sweep, foot_offset)
+                        np.ascontiguousarray(DROPS, dtype=float), sweep, foot_offset,
+                        top_height, top_ahead, radius, flexion_lift(ch, tops))
     _PLANS[ch] = out
     return out
 
