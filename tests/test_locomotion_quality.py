@@ -75,6 +75,30 @@ def test_toe_tips_stay_on_the_ground_and_put_in_stance(character, gait):
     assert r["toe_slide_mm_p90"] <= 5.0
 
 
+@pytest.mark.parametrize("character,gait", [
+    (c, g) for c in CHARACTERS for g in ("walk", "trot", "transverse_gallop", "rotary_gallop")])
+def test_the_trunk_rocks_flexes_and_flies_like_the_animal(character, gait):
+    """What a viewer sees of the trunk, from the joint positions (GAITS.md's
+    figures): in the gallops the cats and the dog pitch at least 15 degrees a
+    stride and flex the spine 35-50 degrees, the horse pitches at least 8 with
+    its spine within 10; in trot and walk the cats' and dog's spine flexes
+    9-25 degrees and the trot pitches 2-6; every flight phase of four frames
+    or more falls at 0.7-1.3 g."""
+    r = appearance_report(steady(character, gait))
+    pitch, spine = r["trunk_pitch_range_deg"], r["spine_flexion_range_deg"]
+    if "gallop" in gait:
+        if character == "horse":
+            assert pitch >= 8.0 and spine <= 10.0, (pitch, spine)
+        else:
+            assert pitch >= 15.0 and 35.0 <= spine <= 50.0, (pitch, spine)
+    elif character != "horse":
+        assert 9.0 <= spine <= 25.0, spine
+        if gait == "trot":
+            assert 2.0 <= pitch <= 6.0, pitch
+    falls = np.array(r["flight_accel_g"])
+    assert np.all((falls <= -0.7) & (falls >= -1.3)), falls
+
+
 #: Known defects of the long strides (Alexander's law) on legs that lack the
 #: reach for them late in swing: the foot misses its path by up to 31 mm and
 #: drops the last 30-50 mm onto the ground in one frame, so its measured
