@@ -142,6 +142,9 @@ class BatchController:
         self._n_tail_max = max(len(x.character.tail) for x in kd)
         self._sc: dict[float, object] = {}
         self._runner = FixedEntry(plan_rows)  # the bundles' types never change
+        # the default commands, copied each step (the kernel's fresh (N,) arrays)
+        self._no_heading = np.full(self.n, np.nan)
+        self._auto_gait = np.full(self.n, -1, dtype=np.int64)
 
     def _init_state(self, chars, seeds, gaits) -> None:
         rows = []
@@ -254,12 +257,12 @@ class BatchController:
             if not np.all(np.isfinite(turn)):
                 raise ValueError("`turn_rate` must be finite")
         if heading is None:
-            head = np.full(n, np.nan)
+            head = self._no_heading.copy()
         else:  # the turn rate is not used where a heading is steered to
             head = _rows(heading, n, float)
             turn[np.isfinite(head)] = 0.0
         if gait is None:
-            gait = np.full(n, -1, dtype=np.int64)
+            gait = self._auto_gait.copy()
         else:
             gait = _rows(gait, n, np.int64)
             asked = gait >= 0
@@ -323,7 +326,8 @@ class BatchController:
         mo, bs = st.motion, st.body
         self.feet = out.feet
         self.time += dt
-        root = np.stack([mo.root_xz[:, 0], bs.height, mo.root_xz[:, 2]], axis=1)
+        root = mo.root_xz.copy()  # x and z; y is the pelvis height
+        root[:, 1] = bs.height
         spine = bs.spine_smooth.copy()
         bend = mo.bend.copy()
         # the frame holds copies: the state arrays change in place at the next step

@@ -54,7 +54,6 @@ from quadsim.locomotion.plan_kernels import (
     MIN_TURN_SPEED,
     TOE_PER_FOLD,
     plan_rows,
-    run_plan,
     step_constants,
 )
 from quadsim.locomotion.pose_kernel import plan_columns
@@ -145,6 +144,7 @@ class ProceduralController:
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
         self.character = character
+        self._skeleton = character.skeleton
         self.dt = float(dt)
         self.settings = settings or ControllerSettings()
         self.plan = plan = character_plan(character)
@@ -178,6 +178,7 @@ class ProceduralController:
             while_plan_compiles, self.poser, self._packed_columns))
         # the outputs of a step, reused: every reader copies what it keeps
         self._outs = {False: plan_outputs(1), True: plan_outputs(1, self._packed_columns)}
+        self._labels: dict[tuple, str] = {}
         self._label = self._current_label()
 
     # the state, read from the compiled plan's row
@@ -210,7 +211,13 @@ class ProceduralController:
         return ScheduleView(self._s.schedule, self.plan.ids)
 
     def _current_label(self) -> str:
-        return ScheduleView(self._s.schedule, self.plan.ids).label
+        """The scheduler's label, remembered by (current, source, in transition)."""
+        sch = self._s.schedule
+        key = (int(sch.current[0]), int(sch.source_name[0]), bool(sch.in_transition[0]))
+        label = self._labels.get(key)
+        if label is None:
+            label = self._labels[key] = ScheduleView(sch, self.plan.ids).label
+        return label
 
     # ------------------------------------------------------------ limits
     def preferred_speed(self, gait: str) -> float:
@@ -268,8 +275,9 @@ class ProceduralController:
             c.heading[0] = float(command.heading)
             c.turn_rate[0] = 0.0
         p = self.plan
-        out = run_plan(c, p.body, p.tables, self._reach, sc, self._s, runner=self._runner,
-                       out=self._outs[packed])
+        out = self._outs[packed]
+        # run_plan's serial path, called directly (one row: no blocks on threads)
+        self._runner(c, p.body, p.tables, self._reach, sc, self._s, out)
         if out.gait_speed_clamped[0] or out.speed_clamped[0] or out.turn_clamped[0]:
             self._clamp_warnings(command, gait_name, out)
         self._label = self._current_label()
@@ -313,18 +321,19 @@ class ProceduralController:
         st = self._s
         mo, bs = st.motion, st.body
         fold = out.fold[0].copy()
-        bend = float(mo.bend[0])
-        spine = float(bs.spine_smooth[0])
+        bend = mo.bend.item(0)
+        spine = bs.spine_smooth.item(0)
+        x, _, z = mo.root_xz[0].tolist()
         return {
-            "root": np.array([mo.root_xz[0, 0], bs.height[0], mo.root_xz[0, 2]]),
-            "heading": float(mo.heading[0]), "pitch": float(out.pitch[0]),
+            "root": np.array((x, bs.height.item(0), z)),
+            "heading": mo.heading.item(0), "pitch": out.pitch.item(0),
             "sway": out.sway[0].copy(), "bend_yaw": bend, "bend_pitch": spine,
             "feet": out.feet[0].copy(), "fold": fold, "toe": TOE_PER_FOLD * fold,
             "tail": bs.tail[0].copy(), "look": LOOK_PER_BEND * bend,
             "contacts": st.feet.stance[0].copy(), "gait": self._label,
-            "phase": out.phase[0].copy(), "speed": float(mo.speed[0]),
-            "duty": float(st.schedule.params.duty[0]), "spine": spine,
-            "heading_rate": float(mo.yaw_rate[0]),
+            "phase": out.phase[0].copy(), "speed": mo.speed.item(0),
+            "duty": st.schedule.params.duty.item(0), "spine": spine,
+            "heading_rate": mo.yaw_rate.item(0),
             "amplitude": np.concatenate([st.cpg.r[0], st.cpg.r_s]),
         }
 
@@ -344,15 +353,16 @@ class ProceduralController:
         if not pose:
             return self.plan_step(command, dt)
         out = self._plan(command, dt, packed=True)
-        local, positions, err = self.poser.pose_packed(out.packed)
+        local, positions, err = self.poser.pose_row(out.packed)
         st = self._s
-        return Frame(
-            self.character.skeleton, self.time, positions[0, 0], local[0], positions[0],
-            float(st.motion.heading[0]), self._label, st.feet.stance[0],
-            float(st.motion.speed[0]),
-            {"phase": out.phase[0], "spine": st.body.spine_smooth[0],
-             "duty": st.schedule.params.duty[0], "speed": st.motion.speed[0],
-             "heading": st.motion.heading[0], "feet": out.feet[0], "ik_error": err[0],
+        mo = st.motion
+        # every array fresh, owning its data: the frame takes them (Frame.owned)
+        return Frame.owned(
+            self._skeleton, self.time, positions[0].copy(), local, positions,
+            float(mo.heading[0]), self._label, st.feet.stance[0].copy(), float(mo.speed[0]),
+            {"phase": out.phase[0].copy(), "spine": np.array(st.body.spine_smooth[0]),
+             "duty": np.array(st.schedule.params.duty[0]), "speed": np.array(mo.speed[0]),
+             "heading": np.array(mo.heading[0]), "feet": out.feet[0].copy(), "ik_error": err,
              "cpg_amplitude": np.concatenate([st.cpg.r[0], st.cpg.r_s])})
 
     def pose(self, plans: dict[str, np.ndarray]):

@@ -17,7 +17,7 @@ from quadsim.commands import Command, Script
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.locomotion.controller import ControllerSettings, ProceduralController
 from quadsim.locomotion.cpg import TWO_PI
-from quadsim.locomotion.plan_kernels import LOOK_PER_BEND, TOE_PER_FOLD
+from quadsim.locomotion.pose_kernel import BEND_PITCH, HEADING, ROOT, plan_columns
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
 
@@ -87,36 +87,29 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     dt = 1.0 / fps
     first = script.commands[0]
     ctl = ProceduralController(character, dt=dt, seed=seed, gait=first.gait, settings=settings)
-    # frame 0 is the starting state; frame k follows k steps of dt
-    # (the compiled plan's row copied into the clip's arrays: no per-frame dicts)
+    # frame 0 is the starting state; frame k follows k steps of dt. The plan
+    # kernel packs each frame's plan for the posing (the row pack_plan makes of
+    # the plan dict): that row and the few channels it lacks are copied into the
+    # clip's arrays, no per-frame dicts
     st = ctl.state
-    mo, bs, cpg = st.motion, st.body, st.cpg
-    n_tail = len(character.tail)
-    root, heading, pitch, sway = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty((n, 2))
-    bend, spine, feet, fold = np.empty(n), np.empty(n), np.empty((n, 4, 3)), np.empty((n, 4))
-    tail, contacts, theta = np.empty((n, n_tail, 2)), np.empty((n, 4), dtype=bool), \
-        np.empty((n, 4))
-    speed, duty, rate, amp = np.empty(n), np.empty(n), np.empty(n), np.empty((n, 5))
+    mo, cpg, stance, duty_now = st.motion, st.cpg, st.feet.stance, st.schedule.params.duty
+    packed = np.empty((n, plan_columns(len(character.tail))))
+    contacts, theta = np.empty((n, 4), dtype=bool), np.empty((n, 4))
+    speed, duty, amp = np.empty(n), np.empty(n), np.empty((n, 5))
     gaits = []
+    step, command_at = ctl._plan, script.command_at
     for k in range(n):
-        if k:
-            out = ctl._plan(script.command_at((k - 1) * dt), dt)
-        else:
-            out = ctl._plan(first, 0.0)
-        root[k, 0], root[k, 1], root[k, 2] = mo.root_xz[0, 0], bs.height[0], mo.root_xz[0, 2]
-        heading[k], pitch[k], sway[k] = mo.heading[0], out.pitch[0], out.sway[0]
-        bend[k], spine[k], feet[k], fold[k] = mo.bend[0], bs.spine_smooth[0], out.feet[0], \
-            out.fold[0]
-        tail[k], contacts[k], theta[k] = bs.tail[0], st.feet.stance[0], cpg.theta[0]
-        speed[k], duty[k], rate[k] = mo.speed[0], st.schedule.params.duty[0], mo.yaw_rate[0]
+        out = step(command_at((k - 1) * dt), dt, True) if k else step(first, 0.0, True)
+        packed[k], contacts[k], theta[k] = out.packed[0], stance[0], cpg.theta[0]
+        speed[k], duty[k] = mo.speed[0], duty_now[0]
         amp[k, :4], amp[k, 4] = cpg.r[0], cpg.r_s[0]
         gaits.append(ctl.gait)
-    plan = {"root": root, "heading": heading, "pitch": pitch, "sway": sway, "bend_yaw": bend,
-            "bend_pitch": spine, "feet": feet, "fold": fold, "toe": TOE_PER_FOLD * fold, "tail": tail,
-            "look": LOOK_PER_BEND * bend, "contacts": contacts, "phase": np.mod(theta / TWO_PI, 1.0),
-            "speed": speed, "duty": duty, "spine": spine, "heading_rate": rate,
-            "amplitude": amp, "gait": np.array(gaits, dtype=object)}
-    local, root, err = ctl.pose(plan)
+    local, _, err = ctl.poser.pose_packed(packed)
+    root = packed[:, ROOT:ROOT + 3].copy()
+    plan = {"contacts": contacts, "gait": np.array(gaits, dtype=object),
+            "phase": np.mod(theta / TWO_PI, 1.0), "spine": packed[:, BEND_PITCH].copy(),
+            "duty": duty, "speed": speed, "heading": packed[:, HEADING].copy(),
+            "amplitude": amp}
     return Motion(
         character.skeleton, fps, root, quaternions_from_matrices(local),
         contacts=plan["contacts"], gaits=plan["gait"], foot_joints=character.foot_joints,

@@ -129,6 +129,37 @@ class Poser:
             kernel(rows, rig, local, positions, err)
         return local, positions, err
 
+    def pose_row(self, row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`pose_packed` of one packed plan, into fresh arrays of one frame
+        (the interactive step's fast way: no checks, no conversion).
+
+        Parameters
+        ----------
+        row : ndarray, shape (1, F)
+            A writable C-contiguous float64 packed plan, F at least
+            :func:`~quadsim.locomotion.pose_kernel.plan_columns` of the
+            character's tail (the caller's promise: it is not checked).
+
+        Returns
+        -------
+        local : ndarray, shape (J, 3, 3)
+        positions : ndarray, shape (J, 3)
+            World position of every joint (m).
+        ik_error : ndarray, shape (4,)
+            Distance between each foot target and the foot reached (m).
+
+        Each owns its data (the kernel writes through one-frame views of them).
+        """
+        J = self._n_joints
+        local, positions, err = np.empty((J, 3, 3)), np.empty((J, 3)), np.empty(4)
+        self._entry(row, self.rig, local.reshape(1, J, 3, 3), positions.reshape(1, J, 3),
+                    err.reshape(1, 4))
+        return local, positions, err
+
+    @cached_property
+    def _n_joints(self) -> int:
+        return self.character.skeleton.n_joints
+
     @cached_property
     def _entry(self) -> FixedEntry:
         """:func:`pose_rows` called for this character's arrays, skipping the dispatch."""
