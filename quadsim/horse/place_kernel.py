@@ -38,7 +38,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..kinematics.chains import fk_row, mul_into, mul_tn_into, two_bone_row
+from ..kinematics.chains import copy_into, fk_row, mul_into, mul_tn_into, two_bone_row
 from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
 
 #: Slack (cycles) of the contact test at a contact's ends (rounding of measured ends).
@@ -341,12 +341,12 @@ def _clip_pose(frame, rig, lead, th, L, M):
     R[2, 1] = -cy * sth
     R[2, 2] = cy * cth
     mul_into(R, L[0], M[1])
-    L[0, :, :] = M[1]
+    copy_into(M[1], L[0])
     # the lead into the pose: chain joint k's world rotation becomes A_k W_k,
     # A_k = R_y(yaw_k) (Y_h R_x(-pitch_k) Y_h^T); L_k' = Wp^T A_{k-1}^T A_k Wp L_k
     chain, lead_yaw, lead_pitch = rig.chain, lead.yaw, lead.pitch
     Wp, Wn, Ap, An, T1, T2 = M[2], M[3], M[4], M[5], M[6], M[7]
-    Wp[:, :] = L[chain[0]]
+    copy_into(L[chain[0]], Wp)
     _lead_matrix(lead_yaw[0], lead_pitch[0], sy, cy, Ap)
     for k in range(1, chain.shape[0]):
         j = chain[k]
@@ -356,9 +356,9 @@ def _clip_pose(frame, rig, lead, th, L, M):
         mul_into(T1, Wp, T2)
         mul_tn_into(Wp, T2, T1)                # Wp^T A_{k-1}^T A_k Wp
         mul_into(T1, L[j], T2)
-        L[j, :, :] = T2
-        Wp[:, :] = Wn
-        Ap[:, :] = An
+        copy_into(T2, L[j])
+        copy_into(Wn, Wp)
+        copy_into(An, Ap)
 
 
 @njit(cache=True, inline="always")
@@ -486,8 +486,8 @@ def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M):
         top, mid = tops[i], mids[i]
         two_bone_row(A[i], B[i], Fp, G[parents[top]], G[top], G[mid], tgt[i],
                      M[8], M[9], M[10:14])
-        L[top, :, :] = M[8]
-        L[mid, :, :] = M[9]
+        copy_into(M[8], L[top])
+        copy_into(M[9], L[mid])
 
 
 @njit(cache=True)

@@ -14,7 +14,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["axis_angle_into", "fk_joint", "fk_row", "mul_into", "mul_tn_into", "two_bone_row",
+__all__ = ["axis_angle_into", "copy_into", "fk_joint", "fk_row", "mul_into", "mul_tn_into", "two_bone_row",
            "two_bone_rows"]
 
 
@@ -40,6 +40,16 @@ def mul_into(A, B, out):
     for r in range(3):
         for c in range(3):
             out[r, c] = A[r, 0] * B[0, c] + A[r, 1] * B[1, c] + A[r, 2] * B[2, c]
+
+
+@njit(cache=True)
+def copy_into(A, out):
+    """``out[:, :] = A`` for 3 x 3 matrices, element by element (a slice
+    assignment makes numba compile its shape-mismatch error path, about 3 s
+    of the horse placement kernel's compile)."""
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = A[r, c]
 
 
 @njit(cache=True)
