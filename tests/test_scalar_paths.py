@@ -213,3 +213,11 @@ def test_compiled_posing_equals_the_array_functions(name):
     np.testing.assert_allclose(P2, P, atol=TOL)
     with pytest.raises(ValueError, match="rows"):  # too few columns for the tail
         poser.pose_packed(pack_plan(plan, len(ch.tail))[:, :-1])
+    # the interactive step's one-frame way: the same pose, in arrays of its own
+    packed = pack_plan(plan, len(ch.tail))
+    for t in (0, 17, 39):
+        local3, P3, err3 = poser.pose_row(np.ascontiguousarray(packed[t:t + 1]))
+        np.testing.assert_array_equal(local3, local2[t])
+        np.testing.assert_array_equal(P3, P2[t])
+        np.testing.assert_allclose(err3, err[t], atol=TOL)
+        assert local3.flags.owndata and P3.flags.owndata and err3.flags.owndata
