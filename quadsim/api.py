@@ -28,7 +28,7 @@ from pathlib import Path
 from quadsim.commands import Command, Script
 from quadsim.errors import InputError, QuadsimClampWarning
 
-__all__ = ["DEFAULT_SECONDS", "FORMATS", "MODES", "check_mode", "make_controller", "model_of",
+__all__ = ["DEFAULT_SECONDS", "FORMATS", "MODEL_SUFFIXES", "MODES", "adopted_character_file", "check_mode", "make_controller", "model_of",
            "resolve", "run", "save", "simulate"]
 
 #: Length (s) of a run made from a character without a config.
@@ -41,10 +41,68 @@ FORMATS = (".bvh", ".glb", ".npz", ".csv")
 MODES = ("procedural", "data")
 
 
+#: The rig files ``quadsim run MODEL`` adopts on the fly (as ``quadsim rig`` does).
+MODEL_SUFFIXES = (".gltf", ".glb", ".bvh")
+
+_ADOPTED: dict[tuple[str, int], Path] = {}
+
+
+def _is_model(source) -> bool:
+    return isinstance(source, (str, os.PathLike)) and \
+        Path(source).suffix.lower() in MODEL_SUFFIXES
+
+
+def adopted_character_file(model) -> Path:
+    """The character file of a user's rig ``model`` adopted on the fly.
+
+    What ``quadsim rig MODEL`` would write, kept in a folder of this
+    process's own (removed at exit) and referring to the model by its
+    absolute path, so that a run, a render or a preview of the model itself
+    animates it in its own file. Adopted once per model and modification time.
+
+    Raises
+    ------
+    InputError
+        For a missing file or one that holds no quadruped, naming ``quadsim
+        rig`` to write a draft whose feet can be set by hand.
+    """
+    import atexit
+    import shutil
+    import tempfile
+
+    from quadsim.io.adopt import adopt
+    from quadsim.io.rig_structure import RigMatchError
+
+    path = Path(model).resolve()
+    try:
+        key = (str(path), path.stat().st_mtime_ns)
+    except OSError:
+        raise InputError(f"{model}: no such model file") from None
+    hit = _ADOPTED.get(key)
+    if hit is not None and hit.is_file():
+        return hit
+    try:
+        adoption = adopt(path)
+    except RigMatchError as e:
+        raise InputError(f"{model}: no quadruped found: {e}; run `quadsim rig {model} --out "
+                         f"{path.stem}.toml` to write a draft naming the legs to set by hand, "
+                         "then run that file") from None
+    folder = Path(tempfile.mkdtemp(prefix="quadsim-rig-"))
+    atexit.register(shutil.rmtree, folder, True)
+    cid = "".join(c if c.isalnum() else "_" for c in path.stem.lower())
+    out = folder / f"{cid}.toml"
+    out.write_text(adoption.character_toml(cid, name=path.stem, model=str(path)),
+                   encoding="utf-8")
+    _ADOPTED[key] = out
+    return out
+
+
 def _character(ref):
     from quadsim.skeleton.character import Character, load_character
 
-    return ref if isinstance(ref, Character) else load_character(ref)
+    if isinstance(ref, Character):
+        return ref
+    return load_character(adopted_character_file(ref) if _is_model(ref) else ref)
 
 
 def check_mode(character, mode: str, label: str = "`mode`") -> None:
@@ -187,7 +245,9 @@ def resolve(source, *, mode: str | None = None, seconds: float | None = None,
     ----------
     source : str, os.PathLike, RunConfig or Character
         A config file, a character identifier (``"leopard"``), a character
-        file, or a config or character already loaded.
+        file, a user's rigged model (``.gltf``, ``.glb`` or ``.bvh``, adopted
+        on the fly: :func:`adopted_character_file`), or a config or character
+        already loaded.
     mode : {"procedural", "data"}, optional
         Replaces a config's mode; for a character the default is procedural.
     seconds, fps, units, speed, gait, turn_rate_deg_s : optional
@@ -212,6 +272,8 @@ def resolve(source, *, mode: str | None = None, seconds: float | None = None,
     elif not isinstance(source, Character) and _is_config(source):
         config = load_config(source)
     else:
+        if _is_model(source):
+            source = adopted_character_file(source)
         character = _character(source)
         if isinstance(source, (str, os.PathLike)) and str(source).endswith(".toml"):
             ref = str(Path(source).resolve())

@@ -2,7 +2,7 @@
 
 ::
 
-    quadsim run CONFIG|CHARACTER [--out FILE.bvh|.glb|.npz|.csv] [--mode procedural|data]
+    quadsim run CONFIG|CHARACTER|MODEL [--out FILE.bvh|.glb|.npz|.csv] [--mode procedural|data]
                        [--seconds S] [--fps N] [--speed M_PER_S] [--gait NAME]
                        [--turn-rate DEG_PER_S] [--units m|cm]
     quadsim --version
@@ -400,12 +400,14 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("run", help="generate a motion from a config or a character and write "
                        "it to a file",
                        description="Generate a motion from a config file, or from a character "
-                       "(an identifier such as `leopard`, or a character file) under a constant "
+                       "(an identifier such as `leopard`, a character file, or your rigged model "
+                       "itself, .gltf/.glb/.bvh, adopted as `quadsim rig` would) under a constant "
                        "command, and write it. --speed/--gait/--turn-rate replace the config's "
                        "commands with one constant command; --gait alone uses that gait's "
                        f"preferred speed. A character alone walks for {DEFAULT_SECONDS:g} s.")
-    r.add_argument("source", metavar="CONFIG|CHARACTER",
-                   help="run configuration (TOML), character identifier or character file")
+    r.add_argument("source", metavar="CONFIG|CHARACTER|MODEL",
+                   help="run configuration (TOML), character identifier, character file, or a "
+                   "rigged model (.gltf, .glb, .bvh)")
     r.add_argument("--mode", choices=("procedural", "data"),
                    help="controller: procedural, or data (a character with a clip database: "
                    "the horse); default the config's mode, else procedural")

@@ -304,3 +304,38 @@ def test_asking_for_units_on_an_adopted_rigs_bvh_warns_that_they_do_not_apply(tm
     with pytest.warns(UserWarning, match="units 'cm' do not apply"):
         asked = quadsim.save(motion, tmp_path / "cm.bvh", units="cm", character=dog)
     assert asked.read_text() == plain.read_text()
+
+
+# ------------------------------------------------------------ the model itself
+@pytest.mark.parametrize("kind", [KINDS[0], KINDS[-1]], ids=[KINDS[0].id, KINDS[-1].id])
+def test_running_the_model_itself_adopts_it_as_quadsim_rig_would(kind, tmp_path, capsys):
+    """`quadsim run MODEL --gait trot --out X` with no character file: the same
+    file, byte for byte, as `quadsim rig MODEL` and then running what it wrote,
+    and no file left beside the model."""
+    from quadsim.cli import main
+
+    spec = kind.spec()
+    model = kind.write(spec, tmp_path)
+    ext = ".bvh" if kind.fmt == ".bvh" else ".glb"
+    before = set(tmp_path.iterdir())
+    direct = tmp_path / f"direct{ext}"
+    assert main(["run", str(model), "--gait", "trot", "--seconds", "2", "--out",
+                 str(direct)]) == 0
+    assert set(tmp_path.iterdir()) - before == {direct}
+    char = tmp_path / "rigged.toml"
+    assert main(["rig", str(model), "--out", str(char)]) == 0
+    via = tmp_path / f"via{ext}"
+    assert main(["run", str(char), "--gait", "trot", "--seconds", "2", "--out", str(via)]) == 0
+    capsys.readouterr()
+    assert direct.read_bytes() == via.read_bytes()
+
+
+def test_running_a_model_with_no_quadruped_says_how_to_set_its_legs(tmp_path, capsys):
+    from quadsim.cli import main
+
+    model = write_gltf(_three_legged(quadruped("tripod", style="blender")),
+                       tmp_path / "tripod.glb")
+    assert main(["run", str(model), "--gait", "trot", "--out", str(tmp_path / "t.glb")]) == 2
+    err = capsys.readouterr().err
+    assert "no quadruped found" in err and f"quadsim rig {model}" in err
+    assert "Traceback" not in err and not (tmp_path / "t.glb").exists()
