@@ -240,7 +240,7 @@ def test_locomotion_table_reads_as_a_mapping_of_the_keys_given(name):
     assert loc["auto"] == loc.auto and loc.get("max_turn_rate_deg_s") == loc.max_turn_rate_deg_s
     assert set(loc) == {k for k in ("gaits", "auto", "max_turn_rate_deg_s", "spine_flex_deg",
                                     "spine_extend_deg", "spine_slow_scale",
-                                    "min_turn_radius_body_lengths")
+                                    "min_turn_radius_body_lengths", "head_nod_deg")
                         if getattr(loc, k) is not None}
     assert "min_turn_radius_body_lengths" not in loc
     assert loc.get("min_turn_radius_body_lengths", 1.0) == 1.0

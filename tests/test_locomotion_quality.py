@@ -99,6 +99,38 @@ def test_the_trunk_rocks_flexes_and_flies_like_the_animal(character, gait):
     assert np.all((falls <= -0.7) & (falls >= -1.3)), falls
 
 
+def _head_pitch(motion):
+    """The head's pitch (rad, up positive) from its world rotation and end site."""
+    from quadsim.skeleton.anatomy import find_anatomy
+
+    a = find_anatomy(motion.skeleton, motion.foot_joints)
+    d = np.einsum("tij,j->ti", motion.world_rotations()[:, a.head], a.head_tip)
+    return np.arctan2(d[:, 1], np.hypot(d[:, 0], d[:, 2]))
+
+
+@pytest.mark.parametrize("gait,nods", [("walk", 2), ("canter", 1), ("transverse_gallop", 1),
+                                       ("trot", 0)])
+def test_the_horse_nods_its_head_and_cats_and_dogs_hold_theirs_level(gait, nods):
+    """GAITS.md, Heads: a horse's head and neck nod twice a stride in the walk,
+    once in the canter and gallop (and keep still in the trot); cats and dogs
+    hold the head level in space however the trunk pitches. Counted from the
+    head's pitch: its strongest frequency against the stride frequency."""
+    m = steady("horse", gait)
+    pitch = np.degrees(_head_pitch(m))
+    if nods == 0:
+        assert np.ptp(pitch) < 0.5
+    else:
+        assert np.ptp(pitch) > 4.0
+        spectrum = np.abs(np.fft.rfft(pitch - pitch.mean()))
+        f = np.fft.rfftfreq(len(pitch), 1.0 / FPS)[np.argmax(spectrum)]
+        feet = m.foot_positions()
+        stride_f = M.stride_frequency(M.foot_contacts(feet, FPS), FPS, feet)
+        assert f / stride_f == pytest.approx(nods, rel=0.1), (f, stride_f)
+    for cat in ("leopard", "dog_cub"):
+        assert np.ptp(np.degrees(_head_pitch(steady(cat, gait if gait != "trot" else "walk")))) \
+            < 0.5
+
+
 #: Known defects of the long strides (Alexander's law) on legs that lack the
 #: reach for them late in swing: the foot misses its path by up to 31 mm and
 #: drops the last 30-50 mm onto the ground in one frame, so its measured

@@ -10,6 +10,8 @@ progress 0 to touchdown); and the posing
 array IK and forward kinematics.
 """
 
+import math
+
 import numpy as np
 import pytest
 from numba import njit
@@ -180,8 +182,12 @@ def _reference_pose(ch, poser, plan):
     G, _ = forward_kinematics(sk, L, plan["root"])
     pitch = np.arcsin(np.clip(-G[:, ch.spine[-1], 1, 2], -1, 1))
     n = len(ch.neck)
+    # the nod: half the fore legs' support (1 - fold) less the hind legs', scaled
+    support = 1.0 - plan["fold"]
+    nod = 0.5 * math.radians(ch.locomotion.get("head_nod_deg", 0.0)) * (
+        support[:, :2].sum(axis=1) - support[:, 2:].sum(axis=1))
     L[:, ch.neck] = matrices_yaw_pitch(plan["look"][:, None] / n * np.ones(n),
-                                       -pitch[:, None] / n * np.ones(n))
+                                       (nod - pitch)[:, None] / n * np.ones(n))
     G, P = forward_kinematics(sk, L, plan["root"])
     err = np.zeros((T, 4))
     for i, geom in enumerate(poser.legs):

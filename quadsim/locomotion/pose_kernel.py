@@ -39,8 +39,8 @@ from numba import njit
 from quadsim.kinematics.ik import leg_rows, pack_legs
 from quadsim.locomotion.rowmath import inner
 
-__all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "pack_legs", "pack_plan", "plan_columns",
-           "pose_rows"]
+__all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "nod_of", "pack_legs", "pack_plan",
+           "plan_columns", "pose_rows"]
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -216,18 +216,17 @@ def _layout(parents, spine, tail, neck, trunk, leg_int):
 
 
 @inner
-def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
-                local, positions, G):
+def _trunk_rows(plan, a, b, parents, offsets, spine, tail, trunk, how, fixed, local,
+                positions, G):
     """Rows ``a`` to ``b`` of :func:`pose_rows` up to the legs: the pelvis,
-    spine, tail and neck rotations and the trunk's world frames
-    (``G[t - a]``) and positions.
+    spine and tail rotations and the trunk's world frames (``G[t - a]``) and
+    positions.
 
     Rotations that share an angle share its cosine and sine: the spine
     joints' common pitch and the yaw of the joints between the first and
-    the last, the neck's yaw and pitch.
+    the last.
     """
     K = spine.shape[0]
-    nn = neck.shape[0]
     for t in range(a, b):
         g = t - a
         for m in range(fixed.shape[0]):
@@ -269,14 +268,39 @@ def _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, 
         for m in range(1, trunk.shape[0]):
             j = trunk[m]
             _fk_joint(t, g, j, parents[j], how[j], True, local, offsets, G, positions)
-        # neck and head: keep the head level, look into the turn
-        if nn:
-            pitch = -math.asin(min(max(-G[g, thorax, 1, 2], -1.0), 1.0)) / nn * 1.0
-            yaw = plan[t, LOOK] / nn * 1.0
-            ca, sa = math.cos(yaw), math.sin(yaw)
-            cb, sb = math.cos(pitch), math.sin(pitch)
-            for k in range(nn):
-                _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
+
+
+@njit(cache=True, inline="always")
+def nod_of(fold, t, amplitude):
+    """The head's nod (rad, positive nose down) of packed plan row ``t``:
+    ``amplitude`` times half the fore legs' support less the hind legs',
+    each leg's support ``1 - fold`` (1 in stance, 0 in mid-swing). It dips
+    the head while the fore legs carry the trunk: twice a stride in the walk,
+    once in the canter and gallop, not at all in the trot and pace, whose
+    pairs hold one fore and one hind leg down together. ``fold`` is the
+    packed plan."""
+    fore = 2.0 - fold[t, FOLD] - fold[t, FOLD + 1]
+    hind = 2.0 - fold[t, FOLD + 2] - fold[t, FOLD + 3]
+    return 0.5 * amplitude * (fore - hind)
+
+
+@inner
+def _neck_rows(plan, a, b, neck, thorax, nod, local, G):
+    """The neck of rows ``a`` to ``b``: the head kept level in space (the
+    thorax's pitch undone), dipped by its nod (:func:`nod_of`) and turned to
+    look into the turn, shared evenly by the neck joints."""
+    nn = neck.shape[0]
+    if nn == 0:
+        return
+    for t in range(a, b):
+        g = t - a
+        level = -math.asin(min(max(-G[g, thorax, 1, 2], -1.0), 1.0))
+        pitch = (level + nod_of(plan, t, nod)) / nn
+        yaw = plan[t, LOOK] / nn
+        ca, sa = math.cos(yaw), math.sin(yaw)
+        cb, sb = math.cos(pitch), math.sin(pitch)
+        for k in range(nn):
+            _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
 
 
 @inner
@@ -314,6 +338,8 @@ class PoseRig(NamedTuple):
     thorax : int
     leg_int, leg_top, leg_bones, leg_scal : ndarray
         The legs (:func:`pack_legs`).
+    nod : float
+        The head's nod (rad, :func:`nod_of`); 0 keeps the head level.
     """
 
     parents: np.ndarray
@@ -327,6 +353,7 @@ class PoseRig(NamedTuple):
     leg_top: np.ndarray
     leg_bones: np.ndarray
     leg_scal: np.ndarray
+    nod: float
 
 
 @njit(cache=True, nogil=True)
@@ -348,15 +375,16 @@ def pose_rows(plan, rig, local, positions, err):
     Notes
     -----
     The rows go through in blocks of :data:`CHUNK`, each through three
-    stages: :func:`_trunk_rows` (spine, tail, trunk forward kinematics,
-    neck), :func:`_leg_rows` (leg IK) and :func:`_rest_rows` (forward
+    stages: :func:`_trunk_rows` (spine, tail, trunk forward kinematics),
+    :func:`_neck_rows` (the neck), :func:`_leg_rows` (leg IK) and :func:`_rest_rows` (forward
     kinematics of the other joints; a leaf's world frame is not formed).
     The stages index the arrays in place rather than passing views or the
     arrays to helpers inside their loops: each such reference costs an
     atomic reference count, which threads sharing the arrays contend for.
     """
     parents, offsets, spine, tail, neck, trunk, thorax = rig[:7]
-    leg_int, leg_top, leg_bones, leg_scal = rig[7:]
+    leg_int, leg_top, leg_bones, leg_scal = rig[7:11]
+    nod = rig.nod
     legs = (leg_int, leg_top, leg_bones, leg_scal)
     # an array: solve_leg's call shares the compiled IK
     cols = np.array([FEET, FOLD, TOE, HEADING, BEND_YAW])
@@ -365,8 +393,9 @@ def pose_rows(plan, rig, local, positions, err):
     how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
     for a in range(0, T, CHUNK):
         b = min(T, a + CHUNK)
-        _trunk_rows(plan, a, b, parents, offsets, spine, tail, neck, trunk, thorax, how, fixed,
-                    local, positions, G)
+        _trunk_rows(plan, a, b, parents, offsets, spine, tail, trunk, how, fixed, local,
+                    positions, G)
+        _neck_rows(plan, a, b, neck, thorax, nod, local, G)
         leg_rows(plan, cols, a, b, legs, G, positions, local, err)
         _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 

@@ -11,6 +11,7 @@ IK places the feet, and forward kinematics of the whole skeleton follows.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -175,6 +176,7 @@ class Poser:
         def ints(x):  # fresh writable copies: one compiled signature for every character
             return np.array(x, dtype=np.int64)
 
+        nod = math.radians(float(ch.locomotion.get("head_nod_deg", 0.0)))
         return PoseRig(ints(sk.parents), np.array(sk.offsets, dtype=float),
                        ints(ch.spine[1:]), ints(ch.tail), ints(ch.neck), ints(trunk),
-                       int(ch.spine[-1]), *pack_legs(self.legs))
+                       int(ch.spine[-1]), *pack_legs(self.legs), nod)

@@ -29,8 +29,8 @@ A character file (TOML; the shipped ones are in the package data,
 ``[locomotion]``
     Optional: ``gaits`` and ``auto`` (gait names; ``auto``, chosen by speed,
     is a subset of ``gaits``), ``max_turn_rate_deg_s``, ``spine_flex_deg``,
-    ``spine_extend_deg``, ``spine_slow_scale``, ``min_turn_radius_body_lengths``
-    (:class:`~quadsim.skeleton.character_file.LocomotionTable`).
+    ``spine_extend_deg``, ``spine_slow_scale``, ``min_turn_radius_body_lengths``,
+    ``head_nod_deg`` (:class:`~quadsim.skeleton.character_file.LocomotionTable`).
 ``[gaits.<name>]``
     Per-character overrides of the shared gait table, read by
     :mod:`quadsim.locomotion.gaits` (keys:

@@ -157,6 +157,11 @@ class LocomotionTable(Mapping):
         Scale of the spine motion at slow speeds, at least 0.
     min_turn_radius_body_lengths : float or None
         Tightest turn radius in body lengths, positive.
+    head_nod_deg : float or None
+        How far the head and neck pitch down (deg) while the fore legs bear
+        more of the weight than the hind ones (see
+        :func:`~quadsim.locomotion.pose_kernel.nod_of`); 0 or absent keeps the
+        head level in space, as cats and dogs hold it.
     """
 
     gaits: tuple[str, ...] | None = None
@@ -166,6 +171,7 @@ class LocomotionTable(Mapping):
     spine_extend_deg: float | None = None
     spine_slow_scale: float | None = None
     min_turn_radius_body_lengths: float | None = None
+    head_nod_deg: float | None = None
 
     def __getitem__(self, key: str):
         value = getattr(self, key, None) if key in _LOCOMOTION_KEYS else None
@@ -188,6 +194,7 @@ _LOCOMOTION_RANGES = {
     "spine_extend_deg": (-90.0, 90.0, True),
     "spine_slow_scale": (0.0, 10.0, True),
     "min_turn_radius_body_lengths": (0.0, 100.0, False),
+    "head_nod_deg": (0.0, 45.0, True),
 }
 
 
