@@ -9,7 +9,12 @@ added as a named animation of the rig's joints:
 - every joint's rotation, as the world-space change quadsim's skeleton made
   (:meth:`Rig.local_rotations`), so the rig's bone axes are kept;
 - the root joint's translation, in the frame of the node above it and in
-  the file's units.
+  the file's units;
+- the rest translation and scale, held for the whole motion, of every joint
+  whose translation or scale the model's own animations key (a Fox's hip),
+  so that a viewer switching from one of the user's animations to quadsim's
+  does not keep the other's hip where it left it (Blender keeps the pose of
+  channels the new action does not key).
 
 The output is one self-contained binary file: every buffer (data URIs,
 ``.bin`` files, a ``.glb`` chunk) is gathered into the binary chunk, images
@@ -188,6 +193,23 @@ def world_changes(rig: Rig, motion, root_offset) -> tuple[np.ndarray, np.ndarray
     return rig.rig_frame(D), (top @ rig.axes) / rig.scale
 
 
+def _held_rest(g, rig: Rig) -> list[tuple[int, str, np.ndarray]]:
+    """(node, "translation" or "scale", rest value (3,)) for every joint whose translation
+    or scale one of the model's own animations keys (the top joint's translation is
+    quadsim's own channel)."""
+    keyed = {(c.target.node, c.target.path) for a in g.animations for c in a.channels
+             if c.target is not None and c.target.node is not None}
+    out = []
+    for k, node in enumerate(rig.nodes):
+        nd = g.nodes[node]
+        for target, default in (("translation", 0.0), ("scale", 1.0)):
+            if (node, target) in keyed and (k, target) != (0, "translation"):
+                rest = getattr(nd, target)
+                out.append((int(node), target,
+                            np.asarray(rest if rest is not None else [default] * 3, float)))
+    return out
+
+
 def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
                      root_offset=(0.0, 0.0, 0.0)) -> Path:
     """Write the rig's model with ``motions`` added as named animations.
@@ -246,6 +268,7 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
         raise InputError(f"{rig.path}: not a readable glTF file ({e})") from None
     blob = _gather(g, rig.path)
     g.animations = list(g.animations or [])
+    held = _held_rest(g, rig)
     names = _unique(names, {a.name for a in g.animations if a.name})
     above = rig.above
     above_rot = above[:3, :3] / np.linalg.norm(above[:3, :3], axis=0, keepdims=True)
@@ -276,6 +299,8 @@ def write_into_model(rig: Rig, motions, path: str | os.PathLike, *, names=None,
         channel(rig.nodes[0], "translation", t, "VEC3")
         for j, node in enumerate(rig.nodes):
             channel(node, "rotation", q[:, j], "VEC4")
+        for node, target, rest in held:
+            channel(node, target, np.tile(rest, (motion.n_frames, 1)), "VEC3")
         g.animations.append(pygltflib.Animation(name=name, samplers=samplers,
                                                 channels=channels))
     data = blob.bytes()
