@@ -18,8 +18,18 @@ from quadsim.frames import GRAVITY
 #: Decorator of a compiled function only other compiled functions call:
 #: numba builds it no Python entry point (the entry of a function of large
 #: bundles costs more to compile than its body), so calling it from Python
-#: crashes. Each stage and helper of the plan and the posing is one.
+#: crashes. The posing's helpers are ones; the plan's are :data:`plan_inner`.
 inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+#: Decorator of the plan's stages and their helpers (an :data:`inner`
+#: compiled without numba's reference counting, NRT): the plan
+#: (:func:`~quadsim.locomotion.plan_kernels.plan_rows`) borrows its caller's
+#: arrays for the step and allocates none (its scratch is the caller's
+#: :class:`~quadsim.locomotion.bundles.StepScratch`), so counting references
+#: buys nothing -- and each bundle taken apart counted every array in it
+#: twice, atomically: most of a one-row step. An allocation in one of these
+#: is a compile error.
+plan_inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12
@@ -28,7 +38,7 @@ MIN_SWING = 0.12
 STRIDE_EXPONENT = 0.3
 
 
-@inner
+@plan_inner
 def frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float (the difference is exact, or rounds the same sum as the
@@ -36,7 +46,7 @@ def frac(x):
     return x - math.floor(x)
 
 
-@inner
+@plan_inner
 def interp_knot(x, xp):
     """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
     for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
@@ -69,7 +79,7 @@ def interp1(x, xp, fp):
     return slope * (x - xp[j]) + fp[j]
 
 
-@inner
+@plan_inner
 def interp_row(x, xp, fp, n):
     """:func:`interp1` of ``x`` on row ``n`` of ``fp`` (N, D)."""
     j, line = interp_knot(x, xp)
@@ -79,7 +89,7 @@ def interp_row(x, xp, fp, n):
     return slope * (x - xp[j]) + fp[n, j]
 
 
-@inner
+@plan_inner
 def interp_col(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, :, i]`` (``fp`` (N, D, C))."""
     j, line = interp_knot(x, xp)
@@ -89,7 +99,7 @@ def interp_col(x, xp, fp, n, i):
     return slope * (x - xp[j]) + fp[n, j, i]
 
 
-@inner
+@plan_inner
 def interp_leg(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, i, :]`` (``fp`` (N, 4, D)), the
     knots searched from the top as the body stage always did."""
@@ -106,7 +116,7 @@ def interp_leg(x, xp, fp, n, i):
     return (xp[j + 1] - xp[j]) / (fp[n, i, j + 1] - x0) * (x - x0) + xp[j]
 
 
-@inner
+@plan_inner
 def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
     """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
     ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
@@ -122,7 +132,7 @@ def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
     kh[n, 1] = heading + bend
 
 
-@inner
+@plan_inner
 def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
     """How far (m) ``points[n, i]`` lies ahead of foot ``i``'s mid-stance point
     (its girdle's key plus the foot's offset turned to the girdle's heading),
@@ -138,18 +148,18 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
         + (points[n, i, 2] - mz) * c
 
 
-@inner
+@plan_inner
 def room_row(keys, kh, offset, planted, base, room, n):
-    """Trailing room (m) of each foot of row ``n``: ``base`` plus how far its
+    """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus how far its
     planted point is ahead of its mid-stance point along the girdle's
     forward vector (each girdle's cosine and sine taken once)."""
     c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
     c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
     for i in range(4):
-        room[i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
+        room[n, i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
 
 
-@inner
+@plan_inner
 def stride_length(minv, coef, speed, h):
     """Natural stride length (m) at ``speed`` by Alexander's law, for the
     parameters' least speed ``minv`` and stride coefficient ``coef``, hip
