@@ -30,6 +30,9 @@ inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
 #: twice, atomically: most of a one-row step. An allocation in one of these
 #: is a compile error.
 plan_inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
+#: ... inlined into its callers (numba's ``inline="always"``): a helper called
+#: per row and leg whose arguments cost more to pass than its body.
+plan_inline = njit(inline="always", no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12
@@ -99,7 +102,7 @@ def interp_col(x, xp, fp, n, i):
     return slope * (x - xp[j]) + fp[n, j, i]
 
 
-@plan_inner
+@plan_inline
 def interp_leg(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, i, :]`` (``fp`` (N, 4, D)), the
     knots searched from the top as the body stage always did."""
@@ -148,7 +151,7 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
         + (points[n, i, 2] - mz) * c
 
 
-@plan_inner
+@plan_inline
 def room_row(keys, kh, offset, planted, base, room, n):
     """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus how far its
     planted point is ahead of its mid-stance point along the girdle's
