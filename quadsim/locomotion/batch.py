@@ -143,6 +143,7 @@ class BatchController:
         self._sc: dict[float, object] = {}
         self._runner = FixedEntry(plan_rows)  # the bundles' types never change
         self._scratch = step_scratch(self.n)  # the stages' working rows, reused
+        self._views: dict = {}  # each block of rows' views of body, reach, state, scratch
         # the default commands, copied each step (the kernel's fresh (N,) arrays)
         self._no_heading = np.full(self.n, np.nan)
         self._auto_gait = np.full(self.n, -1, dtype=np.int64)
@@ -314,7 +315,8 @@ class BatchController:
         cmd = CommandRows(v_cmd, turn, head, gait)
         out = run_plan(cmd, self._body, self._tables, self._reach, sc, self.state,
                        parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns,
-                       runner=self._runner, scratch=self._scratch)
+                       runner=self._runner, scratch=self._scratch,
+                       views=self._views)
         if out.gait_speed_clamped.any():
             self._warn("gait_speed", out.gait_speed_clamped, v_cmd,
                        "speed above what the requested gait reaches")

@@ -31,12 +31,13 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from numba import get_num_threads, njit
 
 from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.body import body_rows
 from quadsim.locomotion.bundles import (
     PlanOutputs,
+    ReachTables,
     StepConstants,
     StepScratch,
     plan_outputs,
@@ -401,22 +402,28 @@ def step_constants(settings, dt: float) -> StepConstants:
 
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
              packed_columns: int = 0, runner: FixedEntry | None = None,
-             out: PlanOutputs | None = None, scratch: StepScratch | None = None) -> PlanOutputs:
-    """:func:`plan_rows`, or, if ``parallel``, :func:`plan_rows` on blocks of
-    rows on threads (:func:`~quadsim.locomotion.blocks.run_blocks`: the same
-    result); returns the step's outputs, the plans packed for the posing if
-    ``packed_columns``. ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry`
-    of :func:`plan_rows` for bundles whose types never change, skips numba's
+             out: PlanOutputs | None = None, scratch: StepScratch | None = None,
+             views: dict | None = None) -> PlanOutputs:
+    """:func:`plan_rows`, or, if ``parallel`` (and numba has more than one
+    thread), :func:`plan_rows` on blocks of rows on threads
+    (:func:`~quadsim.locomotion.blocks.run_blocks`: the same result); returns
+    the step's outputs, the plans packed for the posing if ``packed_columns``.
+
+    ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry` of
+    :func:`plan_rows` for bundles whose types never change, skips numba's
     dispatch. ``out``, if given, receives the outputs (``packed_columns`` is
     then its ``packed`` width); ``scratch`` (a
     :func:`~quadsim.locomotion.bundles.step_scratch` of as many rows), if
-    given, is the stages' working rows."""
+    given, is the stages' working rows. ``views``, a dict the caller keeps
+    for a ``body``, ``reach``, ``state`` and ``scratch`` that are the same
+    arrays every call, keeps each block's views of them (cut once, not
+    every step)."""
     n = state.motion.speed.shape[0]
     if out is None:
         out = plan_outputs(n, packed_columns)
     if scratch is None:
         scratch = step_scratch(n)
-    if not parallel:
+    if not parallel or get_num_threads() <= 1:
         (runner or plan_rows)(cmd, body, gaits, reach, sc, state, scratch, out)
         return out
 
@@ -424,16 +431,24 @@ def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
 
     def block(a, e):
         rows = slice(a, e)
-        kernel(take_rows(cmd, rows), take_rows(body, rows), gaits,
-                  reach._replace(half_sweep=reach.half_sweep[rows],
-                                 sweep_min=reach.sweep_min[rows],
-                                 sweep_cols=reach.sweep_cols[rows],
-                                 foot_offset=reach.foot_offset[rows],
-                                 top_height=reach.top_height[rows],
-                                 top_ahead=reach.top_ahead[rows],
-                                 radius=reach.radius[rows],
-                                 flex_lift=reach.flex_lift[rows]),
-                  sc, take_rows(state, rows), take_rows(scratch, rows), take_rows(out, rows))
+        fixed = None if views is None else views.get((a, e))
+        if fixed is None:
+            fixed = (take_rows(body, rows), reach_rows(reach, rows), take_rows(state, rows),
+                     take_rows(scratch, rows))
+            if views is not None:
+                views[a, e] = fixed
+        kernel(take_rows(cmd, rows), fixed[0], gaits, fixed[1], sc, fixed[2], fixed[3],
+               take_rows(out, rows))
 
     run_blocks(block, n)
     return out
+
+
+def reach_rows(reach: ReachTables, rows) -> ReachTables:
+    """``reach`` with its per-row tables indexed by ``rows`` (``drops`` is
+    every row's)."""
+    return reach._replace(half_sweep=reach.half_sweep[rows], sweep_min=reach.sweep_min[rows],
+                          sweep_cols=reach.sweep_cols[rows],
+                          foot_offset=reach.foot_offset[rows],
+                          top_height=reach.top_height[rows], top_ahead=reach.top_ahead[rows],
+                          radius=reach.radius[rows], flex_lift=reach.flex_lift[rows])
