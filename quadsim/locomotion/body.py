@@ -74,14 +74,14 @@ STANCE_REACH = 0.97
 
 
 @plan_inner
-def _reach_cap(n, g, left, right, ft, keys, key_heading, feet, reach, dropped, flex):
+def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex):
     """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
     (``dropped`` m below standing) with its planted feet ``left``, ``right``
     within :data:`STANCE_REACH` of their legs' reach (infinite with none
     planted): each leg's top over the ground point of its key and offsets,
-    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state."""
+    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state,
+    ``c``, ``sn`` the cosine and sine of the girdle's key heading."""
     cap = math.inf
-    c, sn = math.cos(key_heading[n, g]), math.sin(key_heading[n, g])
     for i in (left, right):
         if not ft.stance[n, i]:
             continue
@@ -109,7 +109,8 @@ def body_rows(body, state, scratch, reach, sc, out):
         Reads the contacts, the phases, the blended gait parameters and the
         key points' source (``motion``); updates ``body`` in place.
     scratch : StepScratch
-        This step's key points ``keys`` and ``key_heading``, ``theta_prev``;
+        This step's key points ``keys``, the cosines and sines of their
+        headings ``key_cs`` (the path stage's), ``theta_prev``;
         ``need``, ``lx`` and ``lz`` are worked in.
     reach : ReachTables
         ``drops``, ``sweep_cols`` and ``foot_offset``.
@@ -120,7 +121,7 @@ def body_rows(body, state, scratch, reach, sc, out):
     """
     stance, u = state.feet.stance, out.phase
     params, bs = state.schedule.params, state.body
-    keys, key_heading = scratch.keys, scratch.key_heading
+    keys, key_cs = scratch.keys, scratch.key_cs
     feet, sway = out.feet, out.sway
     dt = sc.dt
     need, lx, lz = scratch.need, scratch.lx, scratch.lz
@@ -174,8 +175,7 @@ def body_rows(body, state, scratch, reach, sc, out):
         z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
         # girdles' headings' cosines and sines taken once)
-        c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
-        c0, s0 = math.cos(key_heading[n, 0]), math.sin(key_heading[n, 0])
+        c0, s0, c1, s1 = key_cs[n, 0, 0], key_cs[n, 0, 1], key_cs[n, 1, 0], key_cs[n, 1, 1]
         for i in range(4):
             g = 1 if i < 2 else 0
             c, sn = (c1, s1) if g else (c0, s0)
@@ -202,9 +202,9 @@ def body_rows(body, state, scratch, reach, sc, out):
         mid = z[n, 0]
         half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
         flex = bs.spine_smooth[n]
-        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, key_heading, feet,
+        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet,
                                             reach, pelvis * drops_now[n, 0], flex))
-        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, key_heading, feet,
+        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet,
                                             reach, pelvis * drops_now[n, 1], flex))
         bs.height[n] = bs.base_height[n] + rise_h
         bs.rise[n, 0] = rise_h

@@ -200,6 +200,7 @@ class StepScratch(NamedTuple):
     theta_prev: np.ndarray   #: (N, 4) leg phases before the CPG step (rad)
     keys: np.ndarray         #: (N, 2, 3) hind and fore key points (m)
     key_heading: np.ndarray  #: (N, 2) their headings (rad)
+    key_cs: np.ndarray       #: (N, 2, 2) cosine and sine of each key heading
     final_duty: np.ndarray   #: (N,) duty factor of the gait being entered
     trailing: np.ndarray     #: (N, 4) bool: planted feet about to fall out of reach
     half_min: np.ndarray     #: (N,) the worst leg's half stance sweep (m)
@@ -236,7 +237,7 @@ def new_gait_rows(n: int) -> GaitRows:
 def step_scratch(n: int) -> StepScratch:
     """An empty :class:`StepScratch` of ``n`` rows."""
     return StepScratch(np.empty(n), np.empty(n), np.empty((n, 4)), np.empty((n, 4)),
-                       np.empty((n, 2, 3)), np.empty((n, 2)), np.empty(n),
+                       np.empty((n, 2, 3)), np.empty((n, 2)), np.empty((n, 2, 2)), np.empty(n),
                        np.empty((n, 4), dtype=np.bool_), np.empty(n), np.empty((n, 4)),
                        np.empty(n, dtype=np.int64), np.empty(n), np.empty((n, 4)),
                        np.empty((n, 4)), np.empty((n, 4)))

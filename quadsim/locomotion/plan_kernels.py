@@ -121,6 +121,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     # every array bound once: an attribute of a bundle read in a loop costs
     # a reference count each time
     keys, kh, v_before, room = scratch.keys, scratch.key_heading, scratch.v_before, scratch.room
+    key_cs = scratch.key_cs
     c_speed, c_gait, c_turn, c_head = cmd.speed, cmd.gait, cmd.turn_rate, cmd.heading
     kind, speed_hi = body.kind, gaits.speed_hi
     max_speed, start_speed, max_turn = body.max_speed, body.start_speed, body.max_turn_rate
@@ -163,7 +164,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
         pd = p_drop[n] + vault
         dmax = max(drops_now[n, 0], drops_now[n, 1])
         base = interp_row(max(pd, dmax), drops, sweep_min, n)
-        room_row(keys, kh, foot_offset, planted, base, room, n)
+        room_row(keys, kh, key_cs, foot_offset, planted, base, room, n)
         duty = p_duty[n]
         gov = math.inf
         for i in range(4):
@@ -306,8 +307,8 @@ def path_rows(body, gaits, reach, sc, state, scratch):
         pd = p.drop[n] + sc.vault
         dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
         base = interp_row(max(pd, dmax), reach.drops, reach.sweep_min, n)
-        room_row(scratch.keys, scratch.key_heading, reach.foot_offset, state.feet.planted, base,
-                 room, n)
+        room_row(scratch.keys, scratch.key_heading, scratch.key_cs, reach.foot_offset,
+                 state.feet.planted, base, room, n)
         step = v * dt
         for i in range(4):
             scratch.trailing[n, i] = room[n, i] < step

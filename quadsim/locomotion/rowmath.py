@@ -152,12 +152,14 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
 
 
 @plan_inline
-def room_row(keys, kh, offset, planted, base, room, n):
-    """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus how far its
-    planted point is ahead of its mid-stance point along the girdle's
-    forward vector (each girdle's cosine and sine taken once)."""
+def room_row(keys, kh, cs, offset, planted, base, room, n):
+    """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus
+    how far its planted point is ahead of its mid-stance point along the
+    girdle's forward vector (each girdle's cosine and sine taken once, and
+    kept in ``cs[n]``: (hind, fore) x (cos, sin) of the key headings ``kh[n]``)."""
     c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
     c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
+    cs[n, 0, 0], cs[n, 0, 1], cs[n, 1, 0], cs[n, 1, 1] = c0, s0, c1, s1
     for i in range(4):
         room[n, i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
 
