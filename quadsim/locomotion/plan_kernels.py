@@ -160,11 +160,11 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             progress = min(elapsed[n] / duration[n], 1.0) if in_tr else 0.0
             vc = min(vc, max(progress, 0.0) ** 2 * start_speed[n])
         # the reach governor: no planted foot out of reach before it lifts
-        keys_row(root_xz, heading[n], bend[n], hind_z[n], body_length[n], keys, kh, n)
+        keys_row(root_xz, heading[n], bend[n], hind_z[n], body_length[n], keys, kh, key_cs, n)
         pd = p_drop[n] + vault
         dmax = max(drops_now[n, 0], drops_now[n, 1])
         base = interp_row(max(pd, dmax), drops, sweep_min, n)
-        room_row(keys, kh, key_cs, foot_offset, planted, base, room, n)
+        room_row(keys, key_cs, foot_offset, planted, base, room, n)
         duty = p_duty[n]
         gov = math.inf
         for i in range(4):
@@ -300,15 +300,15 @@ def path_rows(body, gaits, reach, sc, state, scratch):
                  mb)
         mo.bend[n] += (bt - mo.bend[n]) * sc.a_bend
         keys_row(mo.root_xz, mo.heading[n], mo.bend[n], body.hind_z[n], body.body_length[n],
-                 scratch.keys, scratch.key_heading, n)
+                 scratch.keys, scratch.key_heading, scratch.key_cs, n)
         g = current[n]
         scratch.final_duty[n] = duty_at(gaits.speed_lo[kind[n], g], gaits.speed_hi[kind[n], g],
                                         gaits.duty_lo[kind[n], g], gaits.duty_hi[kind[n], g], v)
         pd = p.drop[n] + sc.vault
         dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
         base = interp_row(max(pd, dmax), reach.drops, reach.sweep_min, n)
-        room_row(scratch.keys, scratch.key_heading, scratch.key_cs, reach.foot_offset,
-                 state.feet.planted, base, room, n)
+        room_row(scratch.keys, scratch.key_cs, reach.foot_offset, state.feet.planted, base,
+                 room, n)
         step = v * dt
         for i in range(4):
             scratch.trailing[n, i] = room[n, i] < step

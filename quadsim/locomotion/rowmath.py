@@ -120,19 +120,23 @@ def interp_leg(x, xp, fp, n, i):
 
 
 @plan_inner
-def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
-    """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
-    ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
+def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, cs, n):
+    """Row ``n``'s hind and fore key points ``keys[n]`` (m), their headings
+    ``kh[n]`` (rad) and the headings' cosines and sines ``cs[n]`` ((hind,
+    fore) x (cos, sin)), from the pelvis on the ground ``root_xz[n]``."""
     fh = heading + 0.5 * bend
-    hx = root_xz[n, 0] + math.sin(heading) * hind_z
+    c0, s0 = math.cos(heading), math.sin(heading)
+    hx = root_xz[n, 0] + s0 * hind_z
     hy = root_xz[n, 1] + 0.0
-    hz = root_xz[n, 2] + math.cos(heading) * hind_z
+    hz = root_xz[n, 2] + c0 * hind_z
     keys[n, 0, 0], keys[n, 0, 1], keys[n, 0, 2] = hx, hy, hz
     keys[n, 1, 0] = hx + math.sin(fh) * body_length
     keys[n, 1, 1] = hy + 0.0
     keys[n, 1, 2] = hz + math.cos(fh) * body_length
     kh[n, 0] = heading
     kh[n, 1] = heading + bend
+    cs[n, 0, 0], cs[n, 0, 1] = c0, s0
+    cs[n, 1, 0], cs[n, 1, 1] = math.cos(kh[n, 1]), math.sin(kh[n, 1])
 
 
 @plan_inner
@@ -152,14 +156,12 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
 
 
 @plan_inline
-def room_row(keys, kh, cs, offset, planted, base, room, n):
+def room_row(keys, cs, offset, planted, base, room, n):
     """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus
     how far its planted point is ahead of its mid-stance point along the
-    girdle's forward vector (each girdle's cosine and sine taken once, and
-    kept in ``cs[n]``: (hind, fore) x (cos, sin) of the key headings ``kh[n]``)."""
-    c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
-    c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
-    cs[n, 0, 0], cs[n, 0, 1], cs[n, 1, 0], cs[n, 1, 1] = c0, s0, c1, s1
+    girdle's forward vector (``cs[n]``, the key headings' cosines and sines
+    of :func:`keys_row`)."""
+    c0, s0, c1, s1 = cs[n, 0, 0], cs[n, 0, 1], cs[n, 1, 0], cs[n, 1, 1]
     for i in range(4):
         room[n, i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
 
