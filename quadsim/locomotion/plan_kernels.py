@@ -118,8 +118,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     """
     st, mo, sch = state.feet, state.motion, state.schedule
     stand = gaits.speed_lo.shape[1] - 1
-    # every array bound once: an attribute of a bundle read in a loop costs
-    # a reference count each time
+    # every array bound once, out of the loop
     keys, kh, v_before, room = scratch.keys, scratch.key_heading, scratch.v_before, scratch.room
     key_cs = scratch.key_cs
     c_speed, c_gait, c_turn, c_head = cmd.speed, cmd.gait, cmd.turn_rate, cmd.heading

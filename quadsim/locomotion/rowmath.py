@@ -1,10 +1,11 @@
 """Small compiled helpers the stage kernels of the plan share.
 
 Each works on one row ``n`` of whole arrays rather than on a view of the row
-(``keys[n]``): each view made in the loops costs an atomic reference count,
-which the threads of a batch's blocks of rows
-(:func:`~quadsim.locomotion.blocks.run_blocks`) contend for. Units are SI
-(m, s, rad); legs LF, RF, LH, RH.
+(``keys[n]``), and is a :data:`plan_inner`: compiled without reference
+counts, as the plan is, so that no stage allocates or counts (with them,
+each bundle taken apart or view made cost atomic counts, which the threads
+of a batch's blocks of rows contend for). Units are SI (m, s, rad); legs
+LF, RF, LH, RH.
 """
 
 from __future__ import annotations
