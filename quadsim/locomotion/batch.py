@@ -37,7 +37,7 @@ import numpy as np
 from quadsim.commands import Command
 from quadsim.errors import InputError, QuadsimClampWarning
 from quadsim.locomotion.blocks import FixedEntry
-from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables
+from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables, step_scratch
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
@@ -142,6 +142,8 @@ class BatchController:
         self._n_tail_max = max(len(x.character.tail) for x in kd)
         self._sc: dict[float, object] = {}
         self._runner = FixedEntry(plan_rows)  # the bundles' types never change
+        self._scratch = step_scratch(self.n)  # the stages' working rows, reused
+        self._views: dict = {}  # each block of rows' views of body, reach, state, scratch
         # the default commands, copied each step (the kernel's fresh (N,) arrays)
         self._no_heading = np.full(self.n, np.nan)
         self._auto_gait = np.full(self.n, -1, dtype=np.int64)
@@ -313,7 +315,8 @@ class BatchController:
         cmd = CommandRows(v_cmd, turn, head, gait)
         out = run_plan(cmd, self._body, self._tables, self._reach, sc, self.state,
                        parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns,
-                       runner=self._runner)
+                       runner=self._runner, scratch=self._scratch,
+                       views=self._views)
         if out.gait_speed_clamped.any():
             self._warn("gait_speed", out.gait_speed_clamped, v_cmd,
                        "speed above what the requested gait reaches")

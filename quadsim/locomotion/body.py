@@ -12,11 +12,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from quadsim.frames import GRAVITY
 from quadsim.locomotion.cpg import TWO_PI
-from quadsim.locomotion.rowmath import ahead_of_mid, frac, inner, interp_leg
+from quadsim.locomotion.rowmath import ahead_of_mid, frac, interp_leg, plan_inner
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -75,15 +73,15 @@ PITCH_FROM_FLEX = 0.1
 STANCE_REACH = 0.97
 
 
-@inner
-def _reach_cap(n, g, left, right, ft, keys, key_heading, feet, reach, dropped, flex):
+@plan_inner
+def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex):
     """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
     (``dropped`` m below standing) with its planted feet ``left``, ``right``
     within :data:`STANCE_REACH` of their legs' reach (infinite with none
     planted): each leg's top over the ground point of its key and offsets,
-    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state."""
+    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state,
+    ``c``, ``sn`` the cosine and sine of the girdle's key heading."""
     cap = math.inf
-    c, sn = math.cos(key_heading[n, g]), math.sin(key_heading[n, g])
     for i in (left, right):
         if not ft.stance[n, i]:
             continue
@@ -98,7 +96,7 @@ def _reach_cap(n, g, left, right, ft, keys, key_heading, feet, reach, dropped, f
     return cap
 
 
-@inner
+@plan_inner
 def body_rows(body, state, scratch, reach, sc, out):
     """Stage 6 of the step for N rows: the spine's concave/convex machine
     and slow flexion, the bob and vaulting drops, body height and pitch,
@@ -111,7 +109,9 @@ def body_rows(body, state, scratch, reach, sc, out):
         Reads the contacts, the phases, the blended gait parameters and the
         key points' source (``motion``); updates ``body`` in place.
     scratch : StepScratch
-        This step's key points ``keys`` and ``key_heading``.
+        This step's key points ``keys``, the cosines and sines of their
+        headings ``key_cs`` (the path stage's), ``theta_prev``;
+        ``need``, ``lx`` and ``lz`` are worked in.
     reach : ReachTables
         ``drops``, ``sweep_cols`` and ``foot_offset``.
     sc : StepConstants
@@ -121,12 +121,10 @@ def body_rows(body, state, scratch, reach, sc, out):
     """
     stance, u = state.feet.stance, out.phase
     params, bs = state.schedule.params, state.body
-    keys, key_heading = scratch.keys, scratch.key_heading
+    keys, key_cs = scratch.keys, scratch.key_cs
     feet, sway = out.feet, out.sway
     dt = sc.dt
-    need = np.empty(4)
-    lx = np.empty(4)
-    lz = np.empty(4)
+    need, lx, lz = scratch.need, scratch.lx, scratch.lz
     for n in range(stance.shape[0]):
         flexed, extended = body.spine_flexed[n], body.spine_extended[n]
         # the concave/convex machine: flexed while no hind foot is down
@@ -177,23 +175,22 @@ def body_rows(body, state, scratch, reach, sc, out):
         z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
         # girdles' headings' cosines and sines taken once)
-        c1, s1 = math.cos(key_heading[n, 1]), math.sin(key_heading[n, 1])
-        c0, s0 = math.cos(key_heading[n, 0]), math.sin(key_heading[n, 0])
+        c0, s0, c1, s1 = key_cs[n, 0, 0], key_cs[n, 0, 1], key_cs[n, 1, 0], key_cs[n, 1, 1]
         for i in range(4):
             g = 1 if i < 2 else 0
             c, sn = (c1, s1) if g else (c0, s0)
             along = ahead_of_mid(keys, reach.foot_offset, feet, n, i, c0, s0, c1, s1)
-            need[i] = 0.0
+            need[n, i] = 0.0
             if stance[n, i]:  # np.interp(x, sweep_cols[n, i], drops)
-                need[i] = interp_leg(abs(along) / sc.reach_margin, reach.drops,
+                need[n, i] = interp_leg(abs(along) / sc.reach_margin, reach.drops,
                                      reach.sweep_cols, n, i)
             # the foot in its girdle's frame, for the sway: turned by -heading,
             # whose cosine is c and sine -sn
             fx, fz = feet[n, i, 0] - keys[n, g, 0], feet[n, i, 2] - keys[n, g, 2]
-            lx[i] = c * fx - sn * fz
-            lz[i] = sn * fx + c * fz
-        dh = max(drop, max(need[2], need[3]))
-        df = max(drop, max(need[0], need[1]))
+            lx[n, i] = c * fx - sn * fz
+            lz[n, i] = sn * fx + c * fz
+        dh = max(drop, max(need[n, 2], need[n, 3]))
+        df = max(drop, max(need[n, 0], need[n, 1]))
         drops_now = bs.drops_now
         drops_now[n, 0] += (dh - drops_now[n, 0]) * sc.a_drop
         drops_now[n, 1] += (df - drops_now[n, 1]) * sc.a_drop
@@ -205,9 +202,9 @@ def body_rows(body, state, scratch, reach, sc, out):
         mid = z[n, 0]
         half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
         flex = bs.spine_smooth[n]
-        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, key_heading, feet,
+        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet,
                                             reach, pelvis * drops_now[n, 0], flex))
-        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, key_heading, feet,
+        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet,
                                             reach, pelvis * drops_now[n, 1], flex))
         bs.height[n] = bs.base_height[n] + rise_h
         bs.rise[n, 0] = rise_h
@@ -218,8 +215,8 @@ def body_rows(body, state, scratch, reach, sc, out):
                                   - (rise_f - rise_h), body.body_length[n]) + flexing
         # girdle sway from where the left and right feet are
         for g, (left, right) in enumerate(((2, 3), (0, 1))):  # hind, fore
-            width = max(abs(lx[left] - lx[right]), MIN_STANCE_WIDTH)
-            sway[n, g] = min(max(SWAY_GAIN * math.atan2(lz[left] - lz[right], width),
+            width = max(abs(lx[n, left] - lx[n, right]), MIN_STANCE_WIDTH)
+            sway[n, g] = min(max(SWAY_GAIN * math.atan2(lz[n, left] - lz[n, right], width),
                                  -sc.max_sway), sc.max_sway)
         # tail: each joint follows the one before with a lag
         nt = body.n_tail[n]

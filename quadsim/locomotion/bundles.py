@@ -20,12 +20,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from quadsim.locomotion.rowmath import inner
 
 __all__ = ["BodyConstants", "BodyState", "CommandRows", "CpgState", "FeetState", "GaitRows",
            "GaitTables", "MotionState", "PlanOutputs", "PlanState", "ReachTables",
-           "ScheduleState", "StepConstants", "StepScratch", "gait_rows", "new_gait_rows",
-           "plan_outputs",
+           "ScheduleState", "StepConstants", "StepScratch", "new_gait_rows", "plan_outputs",
            "step_scratch", "take_rows"]
 
 
@@ -193,7 +191,8 @@ class PlanState(NamedTuple):
 
 
 class StepScratch(NamedTuple):
-    """What one stage of a step hands the next (filled within the step)."""
+    """What one stage of a step hands the next, and each stage's working
+    rows (filled within the step; the caller's, so the step allocates nothing)."""
 
     v_before: np.ndarray     #: (N,) speed before this step (m/s)
     omega: np.ndarray        #: (N,) stride angular frequency (rad/s)
@@ -201,9 +200,16 @@ class StepScratch(NamedTuple):
     theta_prev: np.ndarray   #: (N, 4) leg phases before the CPG step (rad)
     keys: np.ndarray         #: (N, 2, 3) hind and fore key points (m)
     key_heading: np.ndarray  #: (N, 2) their headings (rad)
+    key_cs: np.ndarray       #: (N, 2, 2) cosine and sine of each key heading
     final_duty: np.ndarray   #: (N,) duty factor of the gait being entered
     trailing: np.ndarray     #: (N, 4) bool: planted feet about to fall out of reach
     half_min: np.ndarray     #: (N,) the worst leg's half stance sweep (m)
+    room: np.ndarray         #: (N, 4) each planted foot's trailing room (m)
+    wanted: np.ndarray       #: (N,) gait id the schedule is asked for (int64)
+    period: np.ndarray       #: (N,) stride period (s)
+    need: np.ndarray         #: (N, 4) drop each planted foot needs (fraction of pelvis height)
+    lx: np.ndarray           #: (N, 4) each foot across its girdle (m)
+    lz: np.ndarray           #: (N, 4) ... and along it (m)
 
 
 class PlanOutputs(NamedTuple):
@@ -223,25 +229,18 @@ class PlanOutputs(NamedTuple):
 
 
 def new_gait_rows(n: int) -> GaitRows:
-    """An empty :class:`GaitRows` of ``n`` rows (in Python; :func:`gait_rows`
-    in compiled code)."""
-    return GaitRows(np.zeros(n), np.zeros((n, 4)), np.zeros(n), np.zeros(n), np.zeros(n),
-                    np.zeros(n), np.zeros(n), np.zeros(n))
-
-
-@inner
-def gait_rows(n):
     """An empty :class:`GaitRows` of ``n`` rows."""
     return GaitRows(np.zeros(n), np.zeros((n, 4)), np.zeros(n), np.zeros(n), np.zeros(n),
                     np.zeros(n), np.zeros(n), np.zeros(n))
 
 
-@inner
-def step_scratch(n):
-    """A :class:`StepScratch` of ``n`` rows."""
+def step_scratch(n: int) -> StepScratch:
+    """An empty :class:`StepScratch` of ``n`` rows."""
     return StepScratch(np.empty(n), np.empty(n), np.empty((n, 4)), np.empty((n, 4)),
-                       np.empty((n, 2, 3)), np.empty((n, 2)), np.empty(n),
-                       np.empty((n, 4), dtype=np.bool_), np.empty(n))
+                       np.empty((n, 2, 3)), np.empty((n, 2)), np.empty((n, 2, 2)), np.empty(n),
+                       np.empty((n, 4), dtype=np.bool_), np.empty(n), np.empty((n, 4)),
+                       np.empty(n, dtype=np.int64), np.empty(n), np.empty((n, 4)),
+                       np.empty((n, 4)), np.empty((n, 4)))
 
 
 def plan_outputs(n: int, packed_columns: int = 0) -> PlanOutputs:

@@ -45,7 +45,7 @@ from quadsim.commands import Command
 from quadsim.controller import Frame
 from quadsim.errors import QuadsimClampWarning
 from quadsim.locomotion.blocks import FixedEntry
-from quadsim.locomotion.bundles import CommandRows, PlanOutputs, plan_outputs
+from quadsim.locomotion.bundles import CommandRows, PlanOutputs, plan_outputs, step_scratch
 from quadsim.locomotion.cpg import CPGParams
 from quadsim.locomotion.gaits import STAND, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
@@ -178,6 +178,7 @@ class ProceduralController:
             while_plan_compiles, self.poser, self._packed_columns))
         # the outputs of a step, reused: every reader copies what it keeps
         self._outs = {False: plan_outputs(1), True: plan_outputs(1, self._packed_columns)}
+        self._scratch = step_scratch(1)  # the stages' working row
         self._labels: dict[tuple, str] = {}
         self._label = self._current_label()
 
@@ -277,7 +278,7 @@ class ProceduralController:
         p = self.plan
         out = self._outs[packed]
         # run_plan's serial path, called directly (one row: no blocks on threads)
-        self._runner(c, p.body, p.tables, self._reach, sc, self._s, out)
+        self._runner(c, p.body, p.tables, self._reach, sc, self._s, self._scratch, out)
         if out.gait_speed_clamped[0] or out.speed_clamped[0] or out.turn_clamped[0]:
             self._clamp_warnings(command, gait_name, out)
         self._label = self._current_label()

@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inner
 
 TWO_PI = 2.0 * np.pi
 
@@ -107,10 +107,10 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams = CPGPara
             rs.reshape(batch))
 
 
-@inner
-def _rates(out, t, r, omega, w, ws, p):
-    """The phase derivatives of one network into ``out`` (5,): legs then
-    spine. ``t`` (t0, t1, t2, t3, spine) phases, ``r`` (r0..r3) amplitudes,
+@plan_inner
+def _rates(t, r, omega, w, ws, p):
+    """The phase derivatives of one network: legs then spine (5 floats).
+    ``t`` (t0, t1, t2, t3, spine) phases, ``r`` (r0..r3) amplitudes,
     ``w`` and ``ws`` the leg and spine couplings, ``p`` the offsets
     (p01, p02, p03, p12, p13, p23) of the pairs ``i < j`` and the spine
     drivers' phases (q0, q2)."""
@@ -125,15 +125,15 @@ def _rates(out, t, r, omega, w, ws, p):
     s12 = math.sin(t2 - t1 - p12)
     s13 = math.sin(t3 - t1 - p13)
     s23 = math.sin(t3 - t2 - p23)
-    out[0] = omega + w * (r1 * s01 + r2 * s02 + r3 * s03)
-    out[1] = omega + w * (r0 * -s01 + r2 * s12 + r3 * s13)
-    out[2] = omega + w * (r0 * -s02 + r1 * -s12 + r3 * s23)
-    out[3] = omega + w * (r0 * -s03 + r1 * -s13 + r2 * -s23)
     # the spine follows LF and LH: locked at theta_s = theta_j + 2 pi psi_j (theta_LH)
-    out[4] = omega + ws * (r0 * math.sin(t0 + q0 - ts) + r2 * math.sin(t2 + q2 - ts))
+    return (omega + w * (r1 * s01 + r2 * s02 + r3 * s03),
+            omega + w * (r0 * -s01 + r2 * s12 + r3 * s13),
+            omega + w * (r0 * -s02 + r1 * -s12 + r3 * s23),
+            omega + w * (r0 * -s03 + r1 * -s13 + r2 * -s23),
+            omega + ws * (r0 * math.sin(t0 + q0 - ts) + r2 * math.sin(t2 + q2 - ts)))
 
 
-@inner
+@plan_inner
 def _amplitude(x, mu, decay):
     """The exact solution of ``dr/dt = a (mu - r^2) r`` for one amplitude:
     ``r(t)^2 = mu / (1 + (mu / r0^2 - 1) decay)`` with ``decay =
@@ -146,7 +146,7 @@ def _amplitude(x, mu, decay):
 @njit(cache=True)
 def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
                   spine_coupling, substeps):
-    """One step of N networks, compiled: the CPG stage of the plan.
+    """One step of ``N`` oscillator networks (:func:`cpg_step_into` on copies).
 
     Parameters
     ----------
@@ -170,20 +170,22 @@ def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
     theta_s, r_s : ndarray, shape (N,)
         The advanced state (new arrays).
     """
+    th, rr, ts, rs = theta.copy(), r.copy(), theta_s.copy(), r_s.copy()
+    cpg_step_into(th, rr, ts, rs, omega, psi, dt, mu, gain, coupling, spine_coupling, substeps)
+    return th, rr, ts, rs
+
+
+@plan_inner
+def cpg_step_into(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
+                  spine_coupling, substeps):
+    """:func:`cpg_step_rows` in place: ``theta``, ``r`` (N, 4), ``theta_s``
+    and ``r_s`` (N,) advance by ``dt`` (s); the plan's CPG stage."""
     N = theta.shape[0]
     h = dt / substeps
     hh = 0.5 * h
     h6 = h / 6.0
     decay_mid = math.exp(-2.0 * gain * mu * (0.5 * h))
     decay_end = math.exp(-2.0 * gain * mu * h)
-    th_out = np.empty((N, 4))
-    r_out = np.empty((N, 4))
-    ts_out = np.empty(N)
-    rs_out = np.empty(N)
-    a = np.empty(5)
-    b = np.empty(5)
-    c = np.empty(5)
-    d = np.empty(5)
     for n in range(N):
         # the offsets phi_ij of the pairs i < j and the spine drivers' phases
         p01 = TWO_PI * (psi[n, 0] - psi[n, 1])
@@ -206,13 +208,13 @@ def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
             e2, e3 = _amplitude(r2, mu, decay_end), _amplitude(r3, mu, decay_end)
             p = (p01, p02, p03, p12, p13, p23, q0, q2)
             rm = (m0, m1, m2, m3)
-            _rates(a, (t0, t1, t2, t3, ts), (r0, r1, r2, r3), om, coupling, spine_coupling, p)
-            _rates(b, (t0 + hh * a[0], t1 + hh * a[1], t2 + hh * a[2], t3 + hh * a[3],
-                       ts + hh * a[4]), rm, om, coupling, spine_coupling, p)
-            _rates(c, (t0 + hh * b[0], t1 + hh * b[1], t2 + hh * b[2], t3 + hh * b[3],
-                       ts + hh * b[4]), rm, om, coupling, spine_coupling, p)
-            _rates(d, (t0 + h * c[0], t1 + h * c[1], t2 + h * c[2], t3 + h * c[3],
-                       ts + h * c[4]), (e0, e1, e2, e3), om, coupling, spine_coupling, p)
+            a = _rates((t0, t1, t2, t3, ts), (r0, r1, r2, r3), om, coupling, spine_coupling, p)
+            b = _rates((t0 + hh * a[0], t1 + hh * a[1], t2 + hh * a[2], t3 + hh * a[3],
+                        ts + hh * a[4]), rm, om, coupling, spine_coupling, p)
+            c = _rates((t0 + hh * b[0], t1 + hh * b[1], t2 + hh * b[2], t3 + hh * b[3],
+                        ts + hh * b[4]), rm, om, coupling, spine_coupling, p)
+            d = _rates((t0 + h * c[0], t1 + h * c[1], t2 + h * c[2], t3 + h * c[3],
+                        ts + h * c[4]), (e0, e1, e2, e3), om, coupling, spine_coupling, p)
             t0 = t0 + h6 * (a[0] + 2 * b[0] + 2 * c[0] + d[0])
             t1 = t1 + h6 * (a[1] + 2 * b[1] + 2 * c[1] + d[1])
             t2 = t2 + h6 * (a[2] + 2 * b[2] + 2 * c[2] + d[2])
@@ -220,11 +222,10 @@ def cpg_step_rows(theta, r, theta_s, r_s, omega, psi, dt, mu, gain, coupling,
             ts = ts + h6 * (a[4] + 2 * b[4] + 2 * c[4] + d[4])
             r0, r1, r2, r3 = e0, e1, e2, e3
             rs = _amplitude(rs, mu, decay_end)
-        th_out[n, 0], th_out[n, 1], th_out[n, 2], th_out[n, 3] = t0, t1, t2, t3
-        r_out[n, 0], r_out[n, 1], r_out[n, 2], r_out[n, 3] = r0, r1, r2, r3
-        ts_out[n] = ts
-        rs_out[n] = rs
-    return th_out, r_out, ts_out, rs_out
+        theta[n, 0], theta[n, 1], theta[n, 2], theta[n, 3] = t0, t1, t2, t3
+        r[n, 0], r[n, 1], r[n, 2], r[n, 3] = r0, r1, r2, r3
+        theta_s[n] = ts
+        r_s[n] = rs
 
 
 def stride_fraction(theta):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 
 from quadsim.locomotion.footpath import swing_into
-from quadsim.locomotion.rowmath import MIN_SWING, frac, inner
+from quadsim.locomotion.rowmath import MIN_SWING, frac, plan_inner
 from quadsim.locomotion.turning import arc_step
 
 TWO_PI = 2.0 * math.pi
@@ -41,7 +41,7 @@ SWING_REACH = 0.98
 REACH_HOLD_UNTIL = 0.8
 
 
-@inner
+@plan_inner
 def feet_rows(state, scratch, reach, sc, out):
     """Stage 5 of the step for N rows: lift-off and touchdown, swing
     progress, touchdown targets on the turning arc and swing paths.

@@ -13,7 +13,7 @@ import numpy as np
 from numba import njit
 
 from quadsim.frames import UP
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inline
 
 
 def catmull_rom(points: np.ndarray, s: np.ndarray) -> np.ndarray:
@@ -116,7 +116,7 @@ def swing_position(liftoff, touchdown, height, s) -> np.ndarray:
     return out.reshape(batch + (3,))
 
 
-@inner
+@plan_inline
 def swing_into(a, b, height, s, out, n, i):
     """The swing path from ``a`` to ``b`` (3-tuples, m) with clearance
     ``height`` (m) at progress ``s`` into ``out[n, i]`` (the knots

@@ -31,19 +31,20 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
+from numba import get_num_threads, njit
 
 from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.body import body_rows
 from quadsim.locomotion.bundles import (
     PlanOutputs,
+    ReachTables,
     StepConstants,
+    StepScratch,
     plan_outputs,
     step_scratch,
     take_rows,
 )
-from quadsim.locomotion.cpg import TWO_PI, cpg_step_rows
+from quadsim.locomotion.cpg import TWO_PI, cpg_step_into
 from quadsim.locomotion.feet import feet_rows
 from quadsim.locomotion.pose_kernel import (
     BEND_PITCH,
@@ -61,10 +62,10 @@ from quadsim.locomotion.pose_kernel import (
 from quadsim.locomotion.rowmath import (
     MIN_SWING,
     frac,
-    inner,
     interp_col,
     interp_row,
     keys_row,
+    plan_inner,
     room_row,
     stride_length,
 )
@@ -101,7 +102,7 @@ SPINE_SMOOTH_TIME = 0.03
 DROP_TIME = 0.04
 
 
-@inner
+@plan_inner
 def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     """Stage 1: the speed and turn rate of this step, from the commands.
 
@@ -113,14 +114,13 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     bounded acceleration. The turn rate steers towards a commanded heading,
     or follows the commanded rate within the turn limit. The clamps are
     flagged in ``out``; ``scratch`` receives ``v_before``, ``keys`` and
-    ``key_heading`` (the key points before moving).
+    ``key_heading`` (the key points before moving) and ``room``.
     """
     st, mo, sch = state.feet, state.motion, state.schedule
     stand = gaits.speed_lo.shape[1] - 1
-    room = np.empty(4)
-    # every array bound once: an attribute of a bundle read in a loop costs
-    # a reference count each time
-    keys, kh, v_before = scratch.keys, scratch.key_heading, scratch.v_before
+    # every array bound once, out of the loop
+    keys, kh, v_before, room = scratch.keys, scratch.key_heading, scratch.v_before, scratch.room
+    key_cs = scratch.key_cs
     c_speed, c_gait, c_turn, c_head = cmd.speed, cmd.gait, cmd.turn_rate, cmd.heading
     kind, speed_hi = body.kind, gaits.speed_hi
     max_speed, start_speed, max_turn = body.max_speed, body.start_speed, body.max_turn_rate
@@ -159,11 +159,11 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             progress = min(elapsed[n] / duration[n], 1.0) if in_tr else 0.0
             vc = min(vc, max(progress, 0.0) ** 2 * start_speed[n])
         # the reach governor: no planted foot out of reach before it lifts
-        keys_row(root_xz, heading[n], bend[n], hind_z[n], body_length[n], keys, kh, n)
+        keys_row(root_xz, heading[n], bend[n], hind_z[n], body_length[n], keys, kh, key_cs, n)
         pd = p_drop[n] + vault
         dmax = max(drops_now[n, 0], drops_now[n, 1])
         base = interp_row(max(pd, dmax), drops, sweep_min, n)
-        room_row(keys, kh, foot_offset, planted, base, room, n)
+        room_row(keys, key_cs, foot_offset, planted, base, room, n)
         duty = p_duty[n]
         gov = math.inf
         for i in range(4):
@@ -173,7 +173,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             lifts = u < duty and 1.0 - MIN_SWING >= duty
             t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / freq[n]
             den = max(t_lo, dt)
-            num = max(room[i], 0.0)
+            num = max(room[n, i], 0.0)
             if den == 0.0:
                 if num == 0.0:
                     gov = math.nan
@@ -200,24 +200,23 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
         yaw_rate[n] += (rate - yaw_rate[n]) * a_turn
 
 
-@inner
-def schedule_rows(cmd, body, gaits, sc, state):
+@plan_inner
+def schedule_rows(cmd, body, gaits, sc, state, scratch):
     """Stage 2: the gait wanted and the blended gait parameters of this step.
 
     A halt (speed command 0) stands once the speed is below the stand
     speed, whatever gait is asked for; a requested gait is held up to
     :data:`GAIT_HOLD_FACTOR` above its speed range; otherwise the automatic
-    choice by speed (with hysteresis) decides.
+    choice by speed (with hysteresis) decides (``scratch.wanted``, and the
+    stride period ``scratch.period``).
     """
     sch, mo = state.schedule, state.motion
     stand = gaits.speed_lo.shape[1] - 1
     speed, current, kind = mo.speed, sch.current, body.kind
     c_speed, c_gait, freq = cmd.speed, cmd.gait, state.cpg.freq
     hysteresis, stand_speed, speed_hi = body.hysteresis, body.stand_speed, gaits.speed_hi
-    N = speed.shape[0]
-    wanted = np.empty(N, dtype=np.int64)
-    period = np.empty(N)
-    for n in range(N):
+    wanted, period = scratch.wanted, scratch.period
+    for n in range(speed.shape[0]):
         k = kind[n]
         v = speed[n]
         g = c_gait[n]
@@ -234,7 +233,7 @@ def schedule_rows(cmd, body, gaits, sc, state):
     advance_schedule(gaits, kind, sch, wanted, speed, sc.dt, period, stand)
 
 
-@inner
+@plan_inner
 def stride_rows(body, reach, sc, state, scratch):
     """Stage 3: the stride frequency (``cpg.freq``), the clock ``omega`` and
     the target phases ``psi`` (into ``scratch``): Alexander's stride law,
@@ -261,7 +260,7 @@ def stride_rows(body, reach, sc, state, scratch):
             scratch.psi[n, i] = p.phases[n, i]
 
 
-@inner
+@plan_inner
 def cpg_rows(sc, state, scratch):
     """Stage 4: the oscillators advance by ``sc.dt``; a leg's phase never
     runs backwards (``scratch.theta_prev`` keeps the phases before)."""
@@ -269,25 +268,21 @@ def cpg_rows(sc, state, scratch):
     for n in range(c.theta.shape[0]):
         for i in range(4):
             scratch.theta_prev[n, i] = c.theta[n, i]
-    th, rr, ts, rs = cpg_step_rows(c.theta, c.r, c.theta_s, c.r_s, scratch.omega, scratch.psi,
-                                   sc.dt, sc.mu, sc.gain, sc.coupling, sc.spine_coupling,
-                                   sc.substeps)
+    cpg_step_into(c.theta, c.r, c.theta_s, c.r_s, scratch.omega, scratch.psi, sc.dt, sc.mu,
+                  sc.gain, sc.coupling, sc.spine_coupling, sc.substeps)
     for n in range(c.theta.shape[0]):
         for i in range(4):
-            c.theta[n, i] = max(th[n, i], scratch.theta_prev[n, i])
-            c.r[n, i] = rr[n, i]
-        c.theta_s[n] = ts[n]
-        c.r_s[n] = rs[n]
+            c.theta[n, i] = max(c.theta[n, i], scratch.theta_prev[n, i])
 
 
-@inner
+@plan_inner
 def path_rows(body, gaits, reach, sc, state, scratch):
     """Stage 5a: the body moves on its path (heading, pelvis, spine bend)
     and the feet stage's inputs follow: the key points, the duty factor of
     the gait entered, the planted feet about to trail out of reach and the
     worst leg's half sweep."""
     mo, p = state.motion, state.schedule.params
-    room = np.empty(4)
+    room = scratch.room
     dt = sc.dt
     kind, current = body.kind, state.schedule.current
     for n in range(mo.speed.shape[0]):
@@ -304,22 +299,22 @@ def path_rows(body, gaits, reach, sc, state, scratch):
                  mb)
         mo.bend[n] += (bt - mo.bend[n]) * sc.a_bend
         keys_row(mo.root_xz, mo.heading[n], mo.bend[n], body.hind_z[n], body.body_length[n],
-                 scratch.keys, scratch.key_heading, n)
+                 scratch.keys, scratch.key_heading, scratch.key_cs, n)
         g = current[n]
         scratch.final_duty[n] = duty_at(gaits.speed_lo[kind[n], g], gaits.speed_hi[kind[n], g],
                                         gaits.duty_lo[kind[n], g], gaits.duty_hi[kind[n], g], v)
         pd = p.drop[n] + sc.vault
         dmax = max(state.body.drops_now[n, 0], state.body.drops_now[n, 1])
         base = interp_row(max(pd, dmax), reach.drops, reach.sweep_min, n)
-        room_row(scratch.keys, scratch.key_heading, reach.foot_offset, state.feet.planted, base,
+        room_row(scratch.keys, scratch.key_cs, reach.foot_offset, state.feet.planted, base,
                  room, n)
         step = v * dt
         for i in range(4):
-            scratch.trailing[n, i] = room[i] < step
+            scratch.trailing[n, i] = room[n, i] < step
         scratch.half_min[n] = interp_row(pd, reach.drops, reach.sweep_min, n)
 
 
-@inner
+@plan_inner
 def pack_rows(state, out):
     """Stage 7: each row's plan packed for the posing
     (:func:`~quadsim.locomotion.pose_kernel.pack_plan`'s layout, with
@@ -352,9 +347,14 @@ def pack_rows(state, out):
             packed[n, TAIL + 2 * k + 1] = tail[n, k, 1]
 
 
-@njit(cache=True, nogil=True)
-def plan_rows(cmd, body, gaits, reach, sc, state, out):
+@njit(cache=True, nogil=True, _nrt=False)
+def plan_rows(cmd, body, gaits, reach, sc, state, scratch, out):
     """One step of the whole plan for N rows (characters), compiled.
+
+    Compiled without numba's reference counting (like its stages,
+    :data:`~quadsim.locomotion.rowmath.plan_inner`): the step borrows the
+    caller's arrays and allocates nothing, so an array crosses in from
+    Python without a reference-counted wrapper of its own.
 
     Parameters
     ----------
@@ -365,13 +365,14 @@ def plan_rows(cmd, body, gaits, reach, sc, state, out):
     sc : StepConstants
     state : PlanState
         Updated in place.
+    scratch : StepScratch
+        The stages' working rows (any values; overwritten).
     out : PlanOutputs
         Receives the feet, fold, pitch, sway, stride fractions, packed
         plans (if it has columns) and the clamp flags.
     """
-    scratch = step_scratch(state.motion.speed.shape[0])
     speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out)
-    schedule_rows(cmd, body, gaits, sc, state)
+    schedule_rows(cmd, body, gaits, sc, state, scratch)
     stride_rows(body, reach, sc, state, scratch)
     cpg_rows(sc, state, scratch)
     path_rows(body, gaits, reach, sc, state, scratch)
@@ -401,35 +402,53 @@ def step_constants(settings, dt: float) -> StepConstants:
 
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
              packed_columns: int = 0, runner: FixedEntry | None = None,
-             out: PlanOutputs | None = None) -> PlanOutputs:
-    """:func:`plan_rows`, or, if ``parallel``, :func:`plan_rows` on blocks of
-    rows on threads (:func:`~quadsim.locomotion.blocks.run_blocks`: the same
-    result); returns the step's outputs, the plans packed for the posing if
-    ``packed_columns``. ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry`
-    of :func:`plan_rows` for bundles whose types never change, skips numba's
+             out: PlanOutputs | None = None, scratch: StepScratch | None = None,
+             views: dict | None = None) -> PlanOutputs:
+    """:func:`plan_rows`, or, if ``parallel`` (and numba has more than one
+    thread), :func:`plan_rows` on blocks of rows on threads
+    (:func:`~quadsim.locomotion.blocks.run_blocks`: the same result); returns
+    the step's outputs, the plans packed for the posing if ``packed_columns``.
+
+    ``runner``, a :class:`~quadsim.locomotion.blocks.FixedEntry` of
+    :func:`plan_rows` for bundles whose types never change, skips numba's
     dispatch. ``out``, if given, receives the outputs (``packed_columns`` is
-    then its ``packed`` width)."""
+    then its ``packed`` width); ``scratch`` (a
+    :func:`~quadsim.locomotion.bundles.step_scratch` of as many rows), if
+    given, is the stages' working rows. ``views``, a dict the caller keeps
+    for a ``body``, ``reach``, ``state`` and ``scratch`` that are the same
+    arrays every call, keeps each block's views of them (cut once, not
+    every step)."""
     n = state.motion.speed.shape[0]
     if out is None:
         out = plan_outputs(n, packed_columns)
-    if not parallel:
-        (runner or plan_rows)(cmd, body, gaits, reach, sc, state, out)
+    if scratch is None:
+        scratch = step_scratch(n)
+    if not parallel or get_num_threads() <= 1:
+        (runner or plan_rows)(cmd, body, gaits, reach, sc, state, scratch, out)
         return out
 
     kernel = runner or plan_rows  # the blocks' slices have the whole arrays' types
 
     def block(a, e):
         rows = slice(a, e)
-        kernel(take_rows(cmd, rows), take_rows(body, rows), gaits,
-                  reach._replace(half_sweep=reach.half_sweep[rows],
-                                 sweep_min=reach.sweep_min[rows],
-                                 sweep_cols=reach.sweep_cols[rows],
-                                 foot_offset=reach.foot_offset[rows],
-                                 top_height=reach.top_height[rows],
-                                 top_ahead=reach.top_ahead[rows],
-                                 radius=reach.radius[rows],
-                                 flex_lift=reach.flex_lift[rows]),
-                  sc, take_rows(state, rows), take_rows(out, rows))
+        fixed = None if views is None else views.get((a, e))
+        if fixed is None:
+            fixed = (take_rows(body, rows), reach_rows(reach, rows), take_rows(state, rows),
+                     take_rows(scratch, rows))
+            if views is not None:
+                views[a, e] = fixed
+        kernel(take_rows(cmd, rows), fixed[0], gaits, fixed[1], sc, fixed[2], fixed[3],
+               take_rows(out, rows))
 
     run_blocks(block, n)
     return out
+
+
+def reach_rows(reach: ReachTables, rows) -> ReachTables:
+    """``reach`` with its per-row tables indexed by ``rows`` (``drops`` is
+    every row's)."""
+    return reach._replace(half_sweep=reach.half_sweep[rows], sweep_min=reach.sweep_min[rows],
+                          sweep_cols=reach.sweep_cols[rows],
+                          foot_offset=reach.foot_offset[rows],
+                          top_height=reach.top_height[rows], top_ahead=reach.top_ahead[rows],
+                          radius=reach.radius[rows], flex_lift=reach.flex_lift[rows])

@@ -1,10 +1,11 @@
 """Small compiled helpers the stage kernels of the plan share.
 
 Each works on one row ``n`` of whole arrays rather than on a view of the row
-(``keys[n]``): each view made in the loops costs an atomic reference count,
-which the threads of a batch's blocks of rows
-(:func:`~quadsim.locomotion.blocks.run_blocks`) contend for. Units are SI
-(m, s, rad); legs LF, RF, LH, RH.
+(``keys[n]``), and is a :data:`plan_inner`: compiled without reference
+counts, as the plan is, so that no stage allocates or counts (with them,
+each bundle taken apart or view made cost atomic counts, which the threads
+of a batch's blocks of rows contend for). Units are SI (m, s, rad); legs
+LF, RF, LH, RH.
 """
 
 from __future__ import annotations
@@ -18,8 +19,21 @@ from quadsim.frames import GRAVITY
 #: Decorator of a compiled function only other compiled functions call:
 #: numba builds it no Python entry point (the entry of a function of large
 #: bundles costs more to compile than its body), so calling it from Python
-#: crashes. Each stage and helper of the plan and the posing is one.
+#: crashes. The posing's helpers are ones; the plan's are :data:`plan_inner`.
 inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+
+#: Decorator of the plan's stages and their helpers (an :data:`inner`
+#: compiled without numba's reference counting, NRT): the plan
+#: (:func:`~quadsim.locomotion.plan_kernels.plan_rows`) borrows its caller's
+#: arrays for the step and allocates none (its scratch is the caller's
+#: :class:`~quadsim.locomotion.bundles.StepScratch`), so counting references
+#: buys nothing -- and each bundle taken apart counted every array in it
+#: twice, atomically: most of a one-row step. An allocation in one of these
+#: is a compile error.
+plan_inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
+#: ... inlined into its callers (numba's ``inline="always"``): a helper called
+#: per row and leg whose arguments cost more to pass than its body.
+plan_inline = njit(inline="always", no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
 
 #: Shortest swing, as a fraction of the stride, worth lifting a foot for.
 MIN_SWING = 0.12
@@ -28,7 +42,7 @@ MIN_SWING = 0.12
 STRIDE_EXPONENT = 0.3
 
 
-@inner
+@plan_inner
 def frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float (the difference is exact, or rounds the same sum as the
@@ -36,7 +50,7 @@ def frac(x):
     return x - math.floor(x)
 
 
-@inner
+@plan_inner
 def interp_knot(x, xp):
     """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
     for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
@@ -69,7 +83,7 @@ def interp1(x, xp, fp):
     return slope * (x - xp[j]) + fp[j]
 
 
-@inner
+@plan_inner
 def interp_row(x, xp, fp, n):
     """:func:`interp1` of ``x`` on row ``n`` of ``fp`` (N, D)."""
     j, line = interp_knot(x, xp)
@@ -79,7 +93,7 @@ def interp_row(x, xp, fp, n):
     return slope * (x - xp[j]) + fp[n, j]
 
 
-@inner
+@plan_inner
 def interp_col(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, :, i]`` (``fp`` (N, D, C))."""
     j, line = interp_knot(x, xp)
@@ -89,7 +103,7 @@ def interp_col(x, xp, fp, n, i):
     return slope * (x - xp[j]) + fp[n, j, i]
 
 
-@inner
+@plan_inline
 def interp_leg(x, xp, fp, n, i):
     """:func:`interp1` of ``x`` on ``fp[n, i, :]`` (``fp`` (N, 4, D)), the
     knots searched from the top as the body stage always did."""
@@ -106,23 +120,27 @@ def interp_leg(x, xp, fp, n, i):
     return (xp[j + 1] - xp[j]) / (fp[n, i, j + 1] - x0) * (x - x0) + xp[j]
 
 
-@inner
-def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, n):
-    """Row ``n``'s hind and fore key points ``keys[n]`` (m) and their headings
-    ``kh[n]`` (rad), from the pelvis on the ground ``root_xz[n]``."""
+@plan_inner
+def keys_row(root_xz, heading, bend, hind_z, body_length, keys, kh, cs, n):
+    """Row ``n``'s hind and fore key points ``keys[n]`` (m), their headings
+    ``kh[n]`` (rad) and the headings' cosines and sines ``cs[n]`` ((hind,
+    fore) x (cos, sin)), from the pelvis on the ground ``root_xz[n]``."""
     fh = heading + 0.5 * bend
-    hx = root_xz[n, 0] + math.sin(heading) * hind_z
+    c0, s0 = math.cos(heading), math.sin(heading)
+    hx = root_xz[n, 0] + s0 * hind_z
     hy = root_xz[n, 1] + 0.0
-    hz = root_xz[n, 2] + math.cos(heading) * hind_z
+    hz = root_xz[n, 2] + c0 * hind_z
     keys[n, 0, 0], keys[n, 0, 1], keys[n, 0, 2] = hx, hy, hz
     keys[n, 1, 0] = hx + math.sin(fh) * body_length
     keys[n, 1, 1] = hy + 0.0
     keys[n, 1, 2] = hz + math.cos(fh) * body_length
     kh[n, 0] = heading
     kh[n, 1] = heading + bend
+    cs[n, 0, 0], cs[n, 0, 1] = c0, s0
+    cs[n, 1, 0], cs[n, 1, 1] = math.cos(kh[n, 1]), math.sin(kh[n, 1])
 
 
-@inner
+@plan_inner
 def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
     """How far (m) ``points[n, i]`` lies ahead of foot ``i``'s mid-stance point
     (its girdle's key plus the foot's offset turned to the girdle's heading),
@@ -138,18 +156,18 @@ def ahead_of_mid(keys, offset, points, n, i, c0, s0, c1, s1):
         + (points[n, i, 2] - mz) * c
 
 
-@inner
-def room_row(keys, kh, offset, planted, base, room, n):
-    """Trailing room (m) of each foot of row ``n``: ``base`` plus how far its
-    planted point is ahead of its mid-stance point along the girdle's
-    forward vector (each girdle's cosine and sine taken once)."""
-    c1, s1 = math.cos(kh[n, 1]), math.sin(kh[n, 1])
-    c0, s0 = math.cos(kh[n, 0]), math.sin(kh[n, 0])
+@plan_inline
+def room_row(keys, cs, offset, planted, base, room, n):
+    """Trailing room ``room[n]`` (m) of each foot of row ``n``: ``base`` plus
+    how far its planted point is ahead of its mid-stance point along the
+    girdle's forward vector (``cs[n]``, the key headings' cosines and sines
+    of :func:`keys_row`)."""
+    c0, s0, c1, s1 = cs[n, 0, 0], cs[n, 0, 1], cs[n, 1, 0], cs[n, 1, 1]
     for i in range(4):
-        room[i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
+        room[n, i] = base + ahead_of_mid(keys, offset, planted, n, i, c0, s0, c1, s1)
 
 
-@inner
+@plan_inner
 def stride_length(minv, coef, speed, h):
     """Natural stride length (m) at ``speed`` by Alexander's law, for the
     parameters' least speed ``minv`` and stride coefficient ``coef``, hip

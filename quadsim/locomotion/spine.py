@@ -35,13 +35,13 @@ import math
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inner
 
 DOUBLE_FLIGHT, FRONT_STANCE, DOUBLE_STANCE, BACK_STANCE = range(4)
 STATE_NAMES = ("double flight", "front stance", "double stance", "back stance")
 
 
-@inner
+@plan_inner
 def state_of(fore_down, hind_down):
     """State index from whether any fore / hind foot is down."""
     if fore_down:
@@ -49,20 +49,20 @@ def state_of(fore_down, hind_down):
     return BACK_STANCE if hind_down else DOUBLE_FLIGHT
 
 
-@inner
+@plan_inner
 def target_of(state, flexed, extended):
     """``flexed`` (theta_c) in double flight and front stance, else ``extended`` (theta_v)."""
     return flexed if (state == DOUBLE_FLIGHT or state == FRONT_STANCE) else extended
 
 
-@inner
+@plan_inner
 def rate_step(angle, target, max_rate, dt):
     """One step of the bounded-speed approach: move at most ``max_rate * dt``
     (the error ``target - angle`` is the rotation still to do)."""
     return angle + min(max(target - angle, -max_rate * dt), max_rate * dt)
 
 
-@inner
+@plan_inner
 def flex_of(theta_s, amplitude):
     """Compress/stretch angle of the slow gaits from the spine oscillator phase."""
     return amplitude * math.sin(theta_s)

@@ -27,7 +27,7 @@ from numba import njit
 
 from quadsim.locomotion.bundles import GaitRows, GaitTables, ScheduleState, new_gait_rows
 from quadsim.locomotion.gaits import STAND, Gait
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inner
 
 #: Length of the transition out of standing (s): setting off is quicker
 #: than a change between two gaits.
@@ -43,14 +43,14 @@ MAX_TRANSITION_TIME = 2.0
 HYSTERESIS = 0.06
 
 
-@inner
+@plan_inner
 def _frac(x):
     """``x % 1.0`` (Python's float modulo) as ``x - floor(x)``: the same value
     for every float, without the library ``fmod`` call."""
     return x - math.floor(x)
 
 
-@inner
+@plan_inner
 def duty_at(lo, hi, d0, d1, speed):
     """The duty factor at ``speed`` (m/s) of a gait of speed range ``lo..hi``
     and duty factors ``d0..d1``: linear over the range, held outside it."""
@@ -107,7 +107,7 @@ def scheduled_into(tables, k, g, in_tr, elapsed, duration, source, n, speed, out
         blend_into(source, n, out, m, s)
 
 
-@inner
+@plan_inner
 def auto_choice(tables, k, current, speed, hysteresis):
     """The automatic gait id of kind ``k`` for ``speed`` (m/s), keeping
     ``current`` while the speed is inside its band widened by ``hysteresis``."""
@@ -125,7 +125,7 @@ def auto_choice(tables, k, current, speed, hysteresis):
     return tables.auto[k, idx]
 
 
-@inner
+@plan_inner
 def advance_schedule(tables, kinds, sched, wanted, speed, dt, period, stand):
     """One step of every row ``n`` of the scheduler ``sched``: the running
     transition advances by ``dt`` (s); if ``wanted[n]`` differs from the

@@ -21,7 +21,7 @@ import math
 import numpy as np
 from numba import njit
 
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inner
 
 TWO_PI = 2.0 * math.pi
 
@@ -32,7 +32,7 @@ HEADING_GAIN = 2.0
 STRAIGHT_TURN = 1e-6
 
 
-@inner
+@plan_inner
 def arc_step(heading, speed, yaw_rate, tau):
     """Move ``tau`` s along the arc of ``speed`` (m/s) and ``yaw_rate``
     (rad/s) from ``heading`` (rad): the ground displacement ``(dx, dz)`` (m)
@@ -49,7 +49,7 @@ def arc_step(heading, speed, yaw_rate, tau):
     return dx, dz, heading + dh
 
 
-@inner
+@plan_inner
 def steer_rate(heading, target, max_rate, gain):
     """Yaw rate (rad/s) steering ``heading`` towards ``target`` (rad):
     ``gain`` (1/s) times the wrapped error, within ``max_rate``."""
