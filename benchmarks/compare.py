@@ -71,7 +71,18 @@ def _probe(tree: Path, cache: Path, characters, frames: int, ns) -> dict:
 
 def compare(rev: str, rounds: int = 5, characters=("leopard", "horse"), frames: int = 3000,
             ns=(1, 100, 1000), log=print) -> dict:
-    """Run the interleaved comparison; returns ``{figure: {...}}`` (see module doc)."""
+    """Run the interleaved comparison; returns ``{figure: {...}}`` (see module doc).
+
+    Raises
+    ------
+    ValueError
+        When ``rev`` names no commit of this repository.
+    """
+    known = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--verify", "--quiet",
+                            f"{rev}^{{commit}}"], capture_output=True, text=True, check=False)
+    if known.returncode != 0:
+        raise ValueError(f"{rev!r} is not a commit of {ROOT}: give a commit, tag or branch "
+                         "(e.g. `git log --oneline` lists them)")
     work = Path(tempfile.mkdtemp(prefix="quadsim-compare-"))
     other = work / "tree"
     subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(other), rev],
@@ -116,8 +127,12 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.rounds < 1:
         ap.error("--rounds must be at least 1")
-    table = compare(args.rev, args.rounds, tuple(args.characters.split(",")), args.frames,
-                    log=lambda m: print(m, file=sys.stderr))
+    try:
+        table = compare(args.rev, args.rounds, tuple(args.characters.split(",")), args.frames,
+                        log=lambda m: print(m, file=sys.stderr))
+    except (ValueError, RuntimeError) as e:
+        print(f"benchmarks.compare: error: {e}", file=sys.stderr)
+        return 2
     w = max(len(f) for f in table)
     print(f"{'figure':<{w}}  {'this tree':>12}  {args.rev[:12]:>12}  speed ratio (range)")
     for fig, r in table.items():
