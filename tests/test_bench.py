@@ -39,3 +39,11 @@ def test_preview_frame_benchmark_times_both_modes_and_a_gait_change():
         for key in ("frame_ms", "p95_ms", "update_ms", "render_ms", "gait_change_max_ms"):
             assert math.isfinite(r[key]) and r[key] > 0, (mode, key, r[key])
         assert r["update_ms"] + r["render_ms"] <= r["frame_ms"] * 1.5 + 1.0
+
+
+def test_compare_refuses_a_revision_that_names_no_commit(capsys):
+    from benchmarks.compare import main
+
+    assert main(["no-such-revision-here", "--rounds", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "'no-such-revision-here' is not a commit" in err and "Traceback" not in err
