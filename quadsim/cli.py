@@ -27,6 +27,7 @@ Heavy modules are imported inside the command that needs them.
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
 import os
@@ -39,6 +40,9 @@ from quadsim.api import DEFAULT_SECONDS
 from quadsim.errors import InputError
 
 PROG = "quadsim"
+#: modules that each register a sub-command with ``register(subparsers)``; they import
+#: their heavy parts inside the command, so listing them costs nothing at start-up
+COMMAND_MODULES = ("quadsim.cli_rig",)
 
 
 class _UsageError(Exception):
@@ -367,12 +371,6 @@ def cmd_render(args) -> int:
     return 0
 
 
-def cmd_rig(args) -> int:
-    from quadsim.cli_rig import adopt_command
-
-    return adopt_command(args)
-
-
 def cmd_bench(args) -> int:
     # the suite lives in the source checkout's benchmarks/, beside the package
     try:
@@ -495,16 +493,8 @@ def build_parser() -> argparse.ArgumentParser:
     rd.add_argument("--quiet", action="store_true", help="no progress bar")
     rd.set_defaults(func=cmd_render)
 
-    rg = sub.add_parser("rig", help="adopt your own rigged quadruped (glTF, BVH) as a character",
-                        description="Find a rig's legs, spine, neck, head and tail from its "
-                        "shape, print what was matched and ignored, and write a character "
-                        "file that refers to the model; `quadsim run` of that file writes "
-                        ".glb files into your own model, .bvh in your own hierarchy.")
-    rg.add_argument("model", metavar="MODEL.glb|.gltf|.bvh")
-    rg.add_argument("--out", metavar="CHARACTER.toml",
-                    help="character file to write (default <model name>.toml)")
-    rg.add_argument("--id", help="character identifier (default from the model's name)")
-    rg.set_defaults(func=cmd_rig)
+    for name in COMMAND_MODULES:  # each adds its own sub-command (`register(sub)`)
+        importlib.import_module(name).register(sub)
 
     b = sub.add_parser("bench", help="measure step rate, offline generation, many "
                        "characters and export on this machine",

@@ -16,7 +16,7 @@ from pathlib import Path
 from quadsim.errors import InputError
 from quadsim.frames import LEGS
 
-__all__ = ["adopt_command", "feet_by_hand"]
+__all__ = ["adopt_command", "feet_by_hand", "register"]
 
 _MODELS = (".gltf", ".glb", ".bvh")
 
@@ -108,3 +108,17 @@ def adopt_command(args) -> int:
     print(f"wrote {out}: character {cid!r}; run it with `quadsim run {out} --gait trot "
           f"--out {model.stem}_trot{ext}` (the {ext} is {kind})")
     return 0
+
+
+def register(sub) -> None:
+    """Add the ``rig`` sub-command to the ``quadsim`` parser's sub-parsers ``sub``."""
+    rg = sub.add_parser("rig", help="adopt your own rigged quadruped (glTF, BVH) as a character",
+                        description="Find a rig's legs, spine, neck, head and tail from its "
+                        "shape, print what was matched and ignored, and write a character "
+                        "file that refers to the model; `quadsim run` of that file writes "
+                        ".glb files into your own model, .bvh in your own hierarchy.")
+    rg.add_argument("model", metavar="MODEL.glb|.gltf|.bvh")
+    rg.add_argument("--out", metavar="CHARACTER.toml",
+                    help="character file to write (default <model name>.toml)")
+    rg.add_argument("--id", help="character identifier (default from the model's name)")
+    rg.set_defaults(func=adopt_command)
