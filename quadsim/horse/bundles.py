@@ -205,6 +205,11 @@ class PlacedPose(NamedTuple):
         Ground height under each foot (m).
     scratch : ndarray, shape (J + WORK_MATRICES, 3, 3)
         Work space (:data:`~quadsim.horse.place_kernel.WORK_MATRICES`).
+    legs : ndarray, shape (LEG_VECTORS, 4, 3)
+        Work space of the legs (:data:`~quadsim.horse.place_kernel.LEG_VECTORS`):
+        the feet, their targets, the legs' top and middle joints, one spare point each.
+    clearance : ndarray, shape (4,)
+        Work space: each foot's height over the clip's ground (m).
     """
 
     local_rotations: np.ndarray
@@ -214,6 +219,8 @@ class PlacedPose(NamedTuple):
     contacts: np.ndarray
     ground: np.ndarray
     scratch: np.ndarray
+    legs: np.ndarray
+    clearance: np.ndarray
 
 
 __all__ = ["FeetState", "LeadState", "PlaceFrame", "PlaceRig", "PlaceState", "PlaceTuning",

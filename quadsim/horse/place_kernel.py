@@ -47,6 +47,8 @@ CONTACT_SLACK = 1e-9
 ON_FRAME = 1e-9
 #: Work matrices :func:`place_row` needs beyond one per joint (its scratch is (J + this, 3, 3)).
 WORK_MATRICES = 16
+#: Work points per leg :func:`place_row` needs (its leg scratch is (this, 4, 3)).
+LEG_VECTORS = 5
 #: A swing foot is at least this fraction of its clip clearance over the ground under it.
 MIN_CLEARANCE_FRACTION = 0.5
 
@@ -86,7 +88,7 @@ def slerp_into(q0, q1, a, out):
         slerp_one(q0[j], q1[j], a, out[j])
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def sample_row(roots, rots, i0, i1, a, root_out, q_out):
     """The pose a fraction ``a`` of the way from frame ``i0`` to frame ``i1``.
 
@@ -128,7 +130,7 @@ def _in_contact(on_off, count, leg, t):
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def stance_row(on_off, count, frames, phase, out):
     """The feet (4,) a looped clip holds still at generic time ``phase`` (cycles).
 
@@ -202,7 +204,7 @@ def pack_contacts(stance_cycles) -> tuple[np.ndarray, np.ndarray]:
 
 
 # ------------------------------------------------------------------ the placement
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def place_row(frame, rig, tuning, state, ramps, out):
     """Place one clip-local pose in the world (the data-driven horse's frame).
 
@@ -236,8 +238,8 @@ def place_row(frame, rig, tuning, state, ramps, out):
     root[1] = _body_height(ramps, root[0], root[2], sy, cy, rig.centre, th, h)
     P = out.positions
     fk_row(rig.parents, rig.offsets, L, root, G, P)
-    F = np.empty((4, 3))
-    clearance = np.empty(4)
+    F = out.legs[0]
+    clearance = out.clearance
     contacts = out.contacts
     R = M[0]
     feet, band, clip_contacts = rig.feet, tuning.ground_band, frame.contacts
@@ -249,13 +251,13 @@ def place_row(frame, rig, tuning, state, ramps, out):
             + (F[i, 2] - root[2]) * R[2, 1] + h
         contacts[i] = clip_contacts[i] or clearance[i] <= band
     shift = _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contacts, th)
-    tgt = np.empty((4, 3))
+    tgt = out.legs[1]
     _foot_targets(frame, tuning, state.feet, ramps, F, clearance, contacts, tgt)
-    A = np.empty((4, 3))
-    B = np.empty((4, 3))
+    A = out.legs[2]
+    B = out.legs[3]
     sag = _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B)
     root[1] -= sag
-    _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M)
+    _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M, out.legs[4, 0])
     rotations, ground = out.rotations, out.ground
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
@@ -474,10 +476,9 @@ def _reach_sag(frame, rig, tuning, state, P, shift, F, tgt, contacts, A, B):
 
 
 @njit(cache=True, inline="always")
-def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M):
+def _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M, Fp):
     """The four legs' two-bone IK onto ``tgt`` (4, 3), the body lowered by ``sag``
-    (``L`` updated)."""
-    Fp = np.empty(3)
+    (``L`` updated; ``Fp`` (3,) work space)."""
     tops, mids, parents = rig.tops, rig.mids, rig.parents
     for i in range(4):
         A[i, 1] -= sag
@@ -527,6 +528,6 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["CONTACT_SLACK", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
+__all__ = ["CONTACT_SLACK", "LEG_VECTORS", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
            "contact_rows", "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
            "sample_row", "sample_rows", "slerp_into", "stance_row"]

@@ -36,7 +36,7 @@ import numpy as np
 from ..skeleton.character import Character
 from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
 from ..kinematics.compiled import FixedEntry
-from .place_kernel import WORK_MATRICES, place_row
+from .place_kernel import LEG_VECTORS, WORK_MATRICES, place_row
 from .turning import (
     GROUND_BAND,
     MAX_PITCH_LEAD,
@@ -108,6 +108,8 @@ class Placement:
                                 self.planter.state)
         self._place_row = FixedEntry(place_row)
         self._scratch = np.empty((skel.n_joints + WORK_MATRICES, 3, 3))
+        self._legs = np.empty((LEG_VECTORS, 4, 3))
+        self._clearance = np.empty(4)
         self._n_joints = skel.n_joints
 
     @property
@@ -140,7 +142,8 @@ class Placement:
         J = self._n_joints
         empty = np.empty
         out = PlacedPose(empty((J, 3, 3)), empty((J, 4)), empty((J, 3)), empty(3),
-                         empty(4, dtype=np.bool_), empty(4), self._scratch)
+                         empty(4, dtype=np.bool_), empty(4), self._scratch, self._legs,
+                         self._clearance)
         self._place_row(PlaceFrame(local, local if first else local_prev, q, contacts, first,
                                    dt, yaw, yaw_prev, yaw_lead),
                         self.rig, TUNING, self.state, ramps, out)
