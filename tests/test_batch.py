@@ -240,3 +240,67 @@ def test_a_large_mixed_herd_plans_on_threads_exactly_as_on_one(monkeypatch):
     labels = {lab for fr in threaded for lab in fr[4]}
     assert len(labels) > 3 and any("->" in lab for lab in labels)   # gaits changed
     assert np.ptp(np.linalg.norm(threaded[-1][0], axis=1)) > 1.0    # the herd spread out
+
+
+def test_a_large_herd_posed_in_its_step_matches_posing_its_plans_afterwards():
+    """One kind of character: each block of rows is posed right after its plan, on its
+    thread; the poses are those of the plans posed row by row once the step is over."""
+    from quadsim.locomotion import pose_kernel
+
+    ch = load_character("dog_cub")
+    n = pose_kernel.PARALLEL_ROWS + 37
+    herd = BatchController([ch] * n, seeds=range(n))
+    rng = np.random.default_rng(5)
+    speed, turn = rng.uniform(0.3, 5.0, n), rng.uniform(-0.5, 0.5, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for _ in range(90):
+            frame = herd.step(speed, turn, pose=True)
+    J = ch.skeleton.n_joints
+    serial = (np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4)))
+    packed = pose_kernel.pack_plan(frame, len(ch.tail))
+    pose_kernel.pose_rows(packed, herd.kinds[0].poser.rig, *serial)
+    for key, want in zip(("local_rotations", "positions", "ik_error"), serial):
+        np.testing.assert_array_equal(frame[key][0], want)
+    assert np.ptp(frame["positions"][0][:, 0, 2]) > 0.3             # the herd spread out
+
+
+def test_an_error_in_one_block_of_rows_is_raised_after_every_block_ended():
+    import threading
+    import time
+
+    from quadsim.locomotion import blocks
+
+    ended = []
+
+    def task(a, e):
+        if a == 0:
+            raise RuntimeError("block 0 failed")
+        time.sleep(0.05)
+        ended.append((a, threading.get_ident()))
+
+    import numba
+
+    if numba.config.NUMBA_NUM_THREADS < 2:
+        pytest.skip("numba has one thread here")
+    with pytest.raises(RuntimeError, match="block 0"), _threads(2):
+        blocks.run_blocks(task, 10)
+    assert [a for a, _ in ended] == [5]          # the other block ran to its end first
+
+
+class _threads:
+    """numba's thread count set for a ``with`` block."""
+
+    def __init__(self, n):
+        self.n = n
+
+    def __enter__(self):
+        import numba
+
+        self.was = numba.get_num_threads()
+        numba.set_num_threads(self.n)
+
+    def __exit__(self, *exc):
+        import numba
+
+        numba.set_num_threads(self.was)

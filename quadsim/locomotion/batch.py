@@ -37,7 +37,13 @@ import numpy as np
 from quadsim.commands import Command
 from quadsim.errors import InputError, QuadsimClampWarning
 from quadsim.locomotion.blocks import FixedEntry
-from quadsim.locomotion.bundles import BodyConstants, CommandRows, ReachTables, step_scratch
+from quadsim.locomotion.bundles import (
+    BodyConstants,
+    CommandRows,
+    ReachTables,
+    plan_outputs,
+    step_scratch,
+)
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
@@ -271,9 +277,24 @@ class BatchController:
             if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
                 raise InputError("a requested gait id is not among its character's gaits")
         # with pose, the plan kernel also packs the plans for the posing kernel
-        frame, packed = self._advance(speed, turn, head, gait,
-                                      self.dt if dt is None else float(dt),
-                                      plan_columns(self._n_tail_max) if pose else 0)
+        dt = self.dt if dt is None else float(dt)
+        columns = plan_columns(self._n_tail_max) if pose else 0
+        if pose and len(self.kinds) == 1:
+            # one kind: each block of rows is posed right after its plan, on its thread
+            poser = self.kinds[0].poser
+            J = poser.character.skeleton.n_joints
+            local, P, err = np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4))
+            out = plan_outputs(n, columns)
+            packed, entry, rig = out.packed, poser.entry, poser.rig
+
+            def pose_block(a, e):
+                entry(packed[a:e], rig, local[a:e], P[a:e], err[a:e])
+
+            frame, _ = self._advance(speed, turn, head, gait, dt, columns, out=out,
+                                     then=pose_block)
+            frame.update(local_rotations=[local], positions=[P], ik_error=[err])
+            return frame
+        frame, packed = self._advance(speed, turn, head, gait, dt, columns)
         if pose:
             frame.update(self._pose_packed(packed))
         return frame
@@ -304,7 +325,7 @@ class BatchController:
             out["ik_error"].append(err)
         return out
 
-    def _advance(self, v_cmd, turn, head, gait, dt, packed_columns=0):
+    def _advance(self, v_cmd, turn, head, gait, dt, packed_columns=0, out=None, then=None):
         sc = self._sc.get(dt)
         if sc is None:
             sc = self._sc[dt] = step_constants(self.settings, dt)
@@ -316,7 +337,7 @@ class BatchController:
         out = run_plan(cmd, self._body, self._tables, self._reach, sc, self.state,
                        parallel=self.n >= PARALLEL_ROWS, packed_columns=packed_columns,
                        runner=self._runner, scratch=self._scratch,
-                       views=self._views)
+                       views=self._views, out=out, then=then)
         if out.gait_speed_clamped.any():
             self._warn("gait_speed", out.gait_speed_clamped, v_cmd,
                        "speed above what the requested gait reaches")

@@ -38,12 +38,23 @@ def _pool() -> ThreadPoolExecutor:
 
 
 def run_blocks(task, n: int) -> None:
-    """``task(a, e)`` for blocks ``a:e`` covering rows ``0:n``, one a thread."""
+    """``task(a, e)`` for blocks ``a:e`` covering rows ``0:n``, one a thread.
+
+    The calling thread runs the first block itself while the pool's threads
+    run the others (it would otherwise only wait, and a pool thread's wake-up
+    is paid once less); the first error raised in a block is raised once
+    every block has ended.
+    """
     blocks = min(max(get_num_threads(), 1), max(n, 1))
     if blocks <= 1:
         task(0, n)
         return
     size = -(-n // blocks)
-    futures = [_pool().submit(task, a, min(n, a + size)) for a in range(0, n, size)]
+    futures = [_pool().submit(task, a, min(n, a + size)) for a in range(size, n, size)]
+    try:
+        task(0, min(n, size))
+    finally:
+        for f in futures:
+            f.exception()  # wait for every block, even after an error here
     for f in futures:
         f.result()

@@ -403,7 +403,7 @@ def step_constants(settings, dt: float) -> StepConstants:
 def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
              packed_columns: int = 0, runner: FixedEntry | None = None,
              out: PlanOutputs | None = None, scratch: StepScratch | None = None,
-             views: dict | None = None) -> PlanOutputs:
+             views: dict | None = None, then=None) -> PlanOutputs:
     """:func:`plan_rows`, or, if ``parallel`` (and numba has more than one
     thread), :func:`plan_rows` on blocks of rows on threads
     (:func:`~quadsim.locomotion.blocks.run_blocks`: the same result); returns
@@ -417,7 +417,9 @@ def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
     given, is the stages' working rows. ``views``, a dict the caller keeps
     for a ``body``, ``reach``, ``state`` and ``scratch`` that are the same
     arrays every call, keeps each block's views of them (cut once, not
-    every step)."""
+    every step). ``then(a, e)``, if given, runs after the plan of rows ``a:e``
+    in the same block (on the same thread): the posing of those rows, say,
+    with no wait for the other blocks' plans in between."""
     n = state.motion.speed.shape[0]
     if out is None:
         out = plan_outputs(n, packed_columns)
@@ -425,6 +427,8 @@ def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
         scratch = step_scratch(n)
     if not parallel or get_num_threads() <= 1:
         (runner or plan_rows)(cmd, body, gaits, reach, sc, state, scratch, out)
+        if then is not None:
+            then(0, n)
         return out
 
     kernel = runner or plan_rows  # the blocks' slices have the whole arrays' types
@@ -439,6 +443,8 @@ def run_plan(cmd, body, gaits, reach, sc, state, parallel: bool = False,
                 views[a, e] = fixed
         kernel(take_rows(cmd, rows), fixed[0], gaits, fixed[1], sc, fixed[2], fixed[3],
                take_rows(out, rows))
+        if then is not None:
+            then(a, e)
 
     run_blocks(block, n)
     return out

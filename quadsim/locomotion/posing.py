@@ -122,7 +122,7 @@ class Poser:
         rows = np.ascontiguousarray(rows, dtype=float)
         if not rows.flags.writeable:  # the one array type the entry is called with
             rows = rows.copy()
-        rig, kernel = self.rig, self._entry
+        rig, kernel = self.rig, self.entry
         if T >= PARALLEL_ROWS:  # blocks of rows on threads: the same result
             run_blocks(lambda a, e: kernel(rows[a:e], rig, local[a:e], positions[a:e],
                                            err[a:e]), T)
@@ -153,7 +153,7 @@ class Poser:
         """
         J = self._n_joints
         local, positions, err = np.empty((J, 3, 3)), np.empty((J, 3)), np.empty(4)
-        self._entry(row, self.rig, local.reshape(1, J, 3, 3), positions.reshape(1, J, 3),
+        self.entry(row, self.rig, local.reshape(1, J, 3, 3), positions.reshape(1, J, 3),
                     err.reshape(1, 4))
         return local, positions, err
 
@@ -162,8 +162,10 @@ class Poser:
         return self.character.skeleton.n_joints
 
     @cached_property
-    def _entry(self) -> FixedEntry:
-        """:func:`pose_rows` called for this character's arrays, skipping the dispatch."""
+    def entry(self) -> FixedEntry:
+        """:func:`pose_rows` called for this character's arrays, skipping the dispatch:
+        ``entry(rows, rig, local, positions, err)`` with :attr:`rig` and the arrays of
+        :meth:`pose_packed` (writable, C-contiguous, float64; not checked)."""
         return FixedEntry(pose_rows)
 
     @cached_property
