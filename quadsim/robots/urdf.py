@@ -103,6 +103,11 @@ class Urdf:
     root: str
 
     @property
+    def label(self) -> str:
+        """The file's name, or the robot's name when not read from a file."""
+        return self.path.name if self.path is not None else self.name
+
+    @property
     def movable_joints(self) -> tuple[UrdfJoint, ...]:
         """Joints other than fixed ones, in file order."""
         return tuple(j for j in self.joints if j.movable)
