@@ -36,11 +36,22 @@ def _rpy_of(R: np.ndarray) -> tuple[float, float, float]:
 
 
 def quadruped_urdf(*, legs=tuple(HIPS), base_frame=np.eye(3), thigh_limit=(-1.0, 2.5),
-                   knee_limit=(-2.6, -0.6), continuous=False) -> str:
+                   knee_limit=(-2.6, -0.6), continuous=False, extras=False) -> str:
     """An A1-like quadruped: abduction (x), hip (y) and knee (y) per leg, 0.2 m thigh and
-    shank, a 2 cm toe sphere; ``base_frame`` maps body coordinates to the base link's."""
+    shank, a 2 cm toe sphere; ``base_frame`` maps body coordinates to the base link's.
+    ``extras`` adds a spine joint the hind legs hang from, a sensor link on each shank
+    and a two-joint head."""
     rpy = _rpy_of(base_frame)
     out = ['<robot name="synthetic">', '  <link name="trunk"/>']
+    if extras:
+        out += ['  <link name="rear"/>', '  <link name="neck"/>', '  <link name="head"/>',
+                '  <joint name="spine" type="revolute"><parent link="trunk"/>'
+                '<child link="rear"/><axis xyz="0 1 0"/>'
+                '<limit lower="-0.3" upper="0.3"/></joint>',
+                '  <joint name="neck_yaw" type="continuous"><parent link="trunk"/>'
+                '<child link="neck"/><origin xyz="0.25 0 0.05"/><axis xyz="0 0 1"/></joint>',
+                '  <joint name="neck_pitch" type="continuous"><parent link="neck"/>'
+                '<child link="head"/><origin xyz="0.05 0 0"/><axis xyz="0 1 0"/></joint>']
 
     def limit(lim):
         return "" if continuous else f'<limit lower="{lim[0]}" upper="{lim[1]}" ' \
@@ -51,11 +62,16 @@ def quadruped_urdf(*, legs=tuple(HIPS), base_frame=np.eye(3), thigh_limit=(-1.0,
         fx, ly = HIPS[name]
         side = 1 if ly > 0 else -1
         hip = base_frame @ np.array([fx, ly, 0.0])
+        parent = "rear" if extras and fx < 0 else "trunk"
+        if extras:
+            out += [f'  <link name="{name}_sensor"/>',
+                    f'  <joint name="{name}_sensor" type="fixed"><parent link="{name}_shank"/>'
+                    f'<child link="{name}_sensor"/><origin xyz="0 0 -0.1"/></joint>']
         out += [f'  <link name="{name}_hip"/>', f'  <link name="{name}_thigh"/>',
                 f'  <link name="{name}_shank"/>',
                 f'  <link name="{name}_toe"><collision><origin xyz="0 0 0"/><geometry>'
                 '<sphere radius="0.02"/></geometry></collision></link>',
-                f'  <joint name="{name}_abduct" type="{kind}"><parent link="trunk"/>'
+                f'  <joint name="{name}_abduct" type="{kind}"><parent link="{parent}"/>'
                 f'<child link="{name}_hip"/><origin xyz="{hip[0]} {hip[1]} {hip[2]}" '
                 f'rpy="{rpy[0]} {rpy[1]} {rpy[2]}"/><axis xyz="1 0 0"/>'
                 f'{limit((-0.8, 0.8))}</joint>',
@@ -151,6 +167,19 @@ def test_a_base_frame_that_is_y_up_and_z_forward_is_found(robot_file):
     robot = find_legs(read_urdf(robot_file(base_frame=Y_UP)))
     assert np.allclose(robot.body, Y_UP)  # columns: forward, left, up in the base frame
     assert robot.legs[0].foot_link == "front_left_toe"
+
+
+def test_spine_head_and_sensor_links_are_not_legs(robot_file, dog_cub_trot):
+    robot = find_legs(read_urdf(robot_file(extras=True)))
+    assert [leg.foot_link for leg in robot.legs] == [
+        "front_left_toe", "front_right_toe", "hind_left_toe", "hind_right_toe"]
+    assert all(len(leg.joints) == 3 for leg in robot.legs)
+    assert {"spine", "neck_yaw", "neck_pitch"} <= set(robot.joint_names)
+    character, config = dog_cub_trot
+    ref, _, _ = _reference(robot, character, config, seconds=1.0)
+    held = [robot.joint_names.index(n) for n in ("spine", "neck_yaw", "neck_pitch")]
+    assert np.all(ref.joint_angles[:, held] == 0.0)
+    assert np.abs(ref.foot_positions[..., 2][ref.contacts] - 0.02).max() < 1e-3
 
 
 def test_three_legs_are_refused(robot_file):
@@ -253,6 +282,29 @@ def test_a_turning_trot_keeps_planted_feet_still(robot_file):
     assert _stance_slides(ref).max() < 1e-3
     heading = np.arctan2(*(ref.base_position[-1, 1::-1] - ref.base_position[-20, 1::-1]))
     assert abs(heading) > 0.5  # it turned
+
+
+@pytest.mark.parametrize("frame", ["z_up", "y_up"])
+def test_the_base_pitches_and_heaves_with_the_animals_trunk(robot_file, frame):
+    """A canter rocks the trunk: the robot's nose rises as the animal's withers do, and
+    its hips stand at the robot's stance height times the animal's trunk height ratio."""
+    from quadsim.api import resolve
+    from quadsim.kinematics.rotations import matrices_from_quaternions
+    from quadsim.robots.retarget import _trunk
+
+    config = resolve("leopard", gait="canter")
+    character = config.load_character()
+    robot = find_legs(read_urdf(robot_file(base_frame=np.eye(3) if frame == "z_up"
+                                           else Y_UP)))
+    ref, motion, _ = _reference(robot, character, config, seconds=2.0)
+    R = matrices_from_quaternions(ref.base_quaternion[:, [3, 0, 1, 2]])
+    nose = np.einsum("tab,b->ta", R, robot.body[:, 0])[:, 2]
+    trunk = _trunk(motion, character)
+    assert np.ptp(trunk.pitch) > 0.1
+    assert np.allclose(np.arcsin(nose), trunk.pitch, atol=1e-6)
+    hips = ref.base_position[:, 2]  # the synthetic robot's hips are level with its base
+    expected = 0.02 + 0.3 * trunk.mid[:, 2] / trunk.rest_mid[2]
+    assert np.allclose(hips, expected, atol=1e-6)
 
 
 def test_the_robot_runs_at_the_animals_froude_number(robot_file, dog_cub_trot):

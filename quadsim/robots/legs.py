@@ -16,7 +16,7 @@ the roots' positions in it. For most robots the body frame is the base frame.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -199,15 +199,32 @@ class RobotLegs:
 
 
 def _leg_candidates(urdf: Urdf) -> list[tuple[str, list[UrdfJoint]]]:
-    paths = [(leaf, urdf.path_to(leaf)) for leaf in urdf.leaves()]
-    out = [(leaf, p) for leaf, p in paths if sum(j.movable for j in p) >= 2]
-    # the joints a leg owns are those on no other candidate's path
+    """Base-to-leaf chains with two or more movable joints no other chain holds.
+
+    Leaves below the same last movable joint (a toe and a sensor link on one shank)
+    are one chain: the leaf named like a foot, else the one farthest from that joint.
+    """
+    pose = urdf.zero_pose()
+    groups: dict[tuple, list] = {}
+    for leaf in urdf.leaves():
+        p = urdf.path_to(leaf)
+        key = tuple(j.name for j in p if j.movable)
+        if len(key) >= 2:
+            groups.setdefault(key, []).append((leaf, p))
+
+    def rank(item):
+        leaf, p = item
+        last = [j for j in p if j.movable][-1].child
+        reach = np.linalg.norm(pose[leaf][:3, 3] - pose[last][:3, 3])
+        return (any(w in leaf.lower() for w in _FOOT_WORDS), reach)
+
+    out = [max(g, key=rank) for g in groups.values()]
     shared: dict[str, int] = {}
-    for _, p in out:
-        for j in p:
-            shared[j.name] = shared.get(j.name, 0) + 1
+    for key in groups:
+        for name in key:
+            shared[name] = shared.get(name, 0) + 1
     return [(leaf, p) for leaf, p in out
-            if sum(j.movable and shared[j.name] == 1 for j in p) >= 2] if out else []
+            if sum(j.movable and shared[j.name] == 1 for j in p) >= 2]
 
 
 def _pick_four(urdf: Urdf, cands, src: str):
@@ -308,9 +325,7 @@ def find_legs(urdf: Urdf) -> RobotLegs:
                          "base; give a URDF of a quadruped")
     order = [names.index(n) for n in LEGS]
     legs = [legs[i] for i in order]
-    legs = tuple(RobotLeg(n, *[getattr(leg, f) for f in (
-        "foot_link", "joints", "columns", "base_to_first", "steps", "tail", "foot_radius",
-        "lower", "upper")]) for n, leg in zip(LEGS, legs))
+    legs = tuple(replace(leg, name=n) for n, leg in zip(LEGS, legs))
     return RobotLegs(urdf, legs, tuple(j.name for j in movable),
                      np.array([j.lower for j in movable]),
                      np.array([j.upper for j in movable]), body)
