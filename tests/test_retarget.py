@@ -97,8 +97,8 @@ def robot_file(tmp_path):
 
 @pytest.fixture(scope="module")
 def dog_cub_trot():
-    """The dog cub's trot, 3 s, as the command line would run it for the synthetic robot."""
-    from quadsim.api import resolve, simulate
+    """The dog cub and its trot command at 1.2 m/s."""
+    from quadsim.api import resolve
 
     config = resolve("dog_cub", gait="trot", speed=1.2)
     character = config.load_character()
@@ -380,3 +380,16 @@ def test_bad_inputs_exit_2_naming_the_field(robot_file, tmp_path, capsys):
     _input_error(main(["retarget", "dog_cub", "--robot", urdf, "--seconds", "-1",
                        "--out", str(tmp_path / "r.json")]), capsys, "`--seconds`")
     assert not list(tmp_path.glob("r.*"))
+
+
+def test_legs_that_cannot_stand_are_an_input_error(robot_file, tmp_path, capsys):
+    urdf = str(robot_file(thigh_limit=(2.9, 3.1)))  # thighs held pointing up
+    _input_error(main(["retarget", "dog_cub", "--robot", urdf, "--out",
+                       str(tmp_path / "r.json")]), capsys, "standing pose", "limits")
+
+
+def test_the_command_has_help(capsys):
+    assert main(["retarget", "--help"]) == 0
+    assert "--robot" in capsys.readouterr().out
+    assert main(["--help"]) == 0
+    assert "retarget" in capsys.readouterr().out

@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from quadsim.errors import InputError
 from quadsim.kinematics.rotations import quaternions_from_matrices
 from quadsim.robots.legs import RobotLegs
 
@@ -111,8 +112,6 @@ def nominal_stance(robot: RobotLegs, height_ratio: float = 0.75) -> Nominal:
         seeds = [_seed(leg, B @ f, B) for leg, f in zip(robot.legs, feet)]
         if all(s is not None for s in seeds):
             return Nominal(float(h), length, mid, feet, tuple(seeds))
-    from quadsim.errors import InputError
-
     raise InputError(f"{robot.urdf.label}: no leg reaches a standing "
                      "pose below its hip within the joint limits; check the limits")
 
