@@ -21,11 +21,11 @@ LAYERS = [
     ("quadsim.skeleton", "quadsim.commands"),
     ("quadsim.controller", "quadsim.kinematics.ik", "quadsim.mesh"),
     ("quadsim.locomotion", "quadsim.horse"),
-    ("quadsim.analysis", "quadsim.io"),
+    ("quadsim.analysis", "quadsim.io", "quadsim.robots"),
     ("quadsim.config",),
     ("quadsim.api",),
     ("quadsim.viz",),
-    ("quadsim.cli", "quadsim.cli_rig", "quadsim.__main__", "quadsim"),
+    ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_retarget", "quadsim.__main__", "quadsim"),
 ]
 
 #: Pairs of the same layer that must not import each other (either way).
