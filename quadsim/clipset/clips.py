@@ -41,6 +41,8 @@ WARM_SECONDS = 3.0
 SETTLE_SECONDS = 3.0
 #: Longest stop (s): standing still is found sooner.
 MAX_STOP_SECONDS = 8.0
+#: Strides (at most half the clip) over which a clip's end eases into the loop it joins.
+BLEND_STRIDES = 2
 _FEET = slice(FEET, FEET + 12)
 #: A stop ends once no foot moved more than this (m or rad) for
 #: :data:`STILL_SECONDS`.
@@ -129,6 +131,11 @@ def cycle_clips(character, gait: str, speed: float, fps: float, *, turn_deg_s: f
     rm = Clip(name, kind, _motion(character, moving, fps, rec), moving, True, True, dict(base))
     ip = Clip(f"{name}_inplace", kind, _motion(character, local, fps, rec), local, True, False,
               dict(base))
+    # the seam: how far the closed loop's last frame is from the simulated one
+    for clip, sim in ((rm, path[-1:]), (ip, in_place(path[-1:]))):
+        P = pose_rows(character, sim, fps).world_positions()[0]
+        clip.info["seam_m"] = float(np.linalg.norm(P - clip.motion.world_positions()[-1],
+                                                   axis=-1).max())
     return rm, ip, stepper
 
 
@@ -211,7 +218,7 @@ def blend_into(rows: np.ndarray, loop: Clip) -> np.ndarray:
     root path: its last plan is then the loop's first, in place."""
     own, theirs = in_place(rows), in_place(loop.rows)
     N = len(theirs) - 1
-    W = min(N // max(loop.info.get("strides", 1), 1), (len(rows) - 1) // 2)
+    W = min(BLEND_STRIDES * N // max(loop.info.get("strides", 1), 1), (len(rows) - 1) // 2)
     if W < 1:
         return rows
     j = np.arange(W + 1)
