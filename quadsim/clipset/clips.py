@@ -206,33 +206,42 @@ def _to_loop(character, stepper, command, loop: Clip, fps, name, kind, info, sta
     rows = place(rec.rows)
     before = _join(rows[-1], loop.rows[0])
     rows = blend_into(rows, loop)
+    feet = _join(rows[-1], loop.rows[0], _FEET)
     info = dict(info, simulated_step_s=rec.dt, end_miss_steps=float(miss),
                 joins=loop.name, join_error_unblended=before,
-                join_error=_join(rows[-1], loop.rows[0]), time_scale=float(rec.dt * fps))
+                join_error=_join(rows[-1], loop.rows[0]), join_feet_m=feet,
+                time_scale=float(rec.dt * fps))
     return Clip(name, kind, _motion(character, rows, fps, rec), rows, False, True, info)
 
 
 def blend_into(rows: np.ndarray, loop: Clip) -> np.ndarray:
-    """Plans of a clip that ends on ``loop``'s first frame (at the same phase) with their
-    last stride (at most half the clip) eased into the loop's, seen from the clip's own
-    root path: its last plan is then the loop's first, in place."""
+    """Plans of a clip that ends on ``loop``'s first frame (at the same phase) with the
+    body's values over their last strides eased into the loop's, seen from the clip's own
+    root path; the feet stay where the clip planted them (easing a planted foot would
+    slide it). Some gaits have more than one steady state -- the spine's pitch in a canter
+    reached from the trot, the tail's lag -- so the ease takes :data:`BLEND_STRIDES`
+    strides, at most a third of the clip."""
     own, theirs = in_place(rows), in_place(loop.rows)
     N = len(theirs) - 1
-    W = min(BLEND_STRIDES * N // max(loop.info.get("strides", 1), 1), (len(rows) - 1) // 2)
+    W = min(BLEND_STRIDES * N // max(loop.info.get("strides", 1), 1), (len(rows) - 1) // 3)
     if W < 1:
         return rows
     j = np.arange(W + 1)
     s = 1.0 - j / W
     w = (s * s * (3.0 - 2.0 * s))[:, None]           # smoothstep: 1 at the end, 0 at W
     ends = len(own) - 1 - j
-    own[ends] = (1.0 - w) * own[ends] + w * theirs[N - j]
+    body = np.ones(own.shape[1], dtype=bool)
+    body[_FEET] = False
+    eased = (1.0 - w) * own[ends] + w * theirs[np.mod(N - j, N)]   # the loop repeats
+    own[np.ix_(ends, body)] = eased[:, body]
     return on_path(own, rows)
 
 
-def _join(a: np.ndarray, b: np.ndarray) -> float:
-    """The largest difference of two plans seen from their own roots (m or rad)."""
+def _join(a: np.ndarray, b: np.ndarray, columns=slice(None)) -> float:
+    """The largest difference of two plans seen from their own roots (m or rad), of all
+    values or of ``columns``."""
     ab = in_place(np.stack([a, b]))
-    return float(np.abs(ab[0] - ab[1]).max())
+    return float(np.abs(ab[0, columns] - ab[1, columns]).max())
 
 
 def start_clip(character, loop: Clip, fps: float, *, seed: int = 0,
