@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import re
 from functools import cache
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -33,9 +34,9 @@ PENETRATION_LIMIT_MM = 5.0
 #: foot out of reach drops onto the ground: test_locomotion_quality's known defects,
 #: xfail there): their footfall table is not held to the gait table's here either.
 SHORT_STANCES = {("dog_cub", "trot"), ("dog_cub", "rotary_gallop")}
-NAME = re.compile(r"^(?P<gait>[a-z_]+?)_(?:(?P<speed>\d+\.\d)(?P<ip>_inplace)?|turn_(?P<side>left|right)_"
-                  r"(?P<rate>\d+)(?P<tip>_inplace)?|to_(?P<to>[a-z_]+))$|^(?P<ss>start|stop)_"
-                  r"(?P<sg>[a-z_]+)$")
+NAME = re.compile(r"^(?P<gait>[a-z_]+?)_(?:(?P<speed>\d+\.\d)(?P<ip>_inplace)?"
+                  r"|turn_(?P<side>left|right)_(?P<rate>\d+)(?P<tip>_inplace)?"
+                  r"|to_(?P<to>[a-z_]+))$|^(?P<ss>start|stop)_(?P<sg>[a-z_]+)$")
 
 
 @cache
@@ -179,7 +180,8 @@ def test_in_place_twins_keep_the_root_within_a_centimetre_and_the_pose(character
         z = -np.sin(a)[:, None] * rel[..., 0] + np.cos(a)[:, None] * rel[..., 2]
         mine = P - c.motion.root_positions[:, None]
         assert np.abs(mine - np.stack([x, rel[..., 1], z], -1)).max() < 1e-6, c.name
-        travel = np.linalg.norm(twin.motion.root_positions[-1, [0, 2]] - twin.motion.root_positions[0, [0, 2]])
+        ends = twin.motion.root_positions[[0, -1]][:, [0, 2]]
+        travel = np.linalg.norm(ends[1] - ends[0])
         assert travel > 0.2, twin.name      # the twin does travel
 
 
@@ -314,3 +316,33 @@ def test_fbx_without_blender_says_how_to_get_it(tmp_path, capsys):
         assert "bpy" in err and "quadsim[blender]" in err
     else:
         pytest.skip("Blender's bpy is installed here (tests/test_clipset_blender.py)")
+
+
+# ------------------------------------------------------------ your own rig
+FOX = Path(__file__).resolve().parents[2] / "shared" / "assets" / "fox" / "Fox.gltf"
+
+
+@pytest.mark.skipif(not FOX.is_file(), reason="the Fox test rig is not on this machine "
+                    "(../shared/assets/fox/Fox.gltf)")
+def test_an_adopted_rig_gets_its_own_model_back_with_the_clips_added(tmp_path):
+    """`quadsim rig` then `quadsim clips`: the Fox's own file with its own Survey, Walk
+    and Run and every clip after them, valid for the Khronos validator (no error, and
+    warnings only of kinds the Fox's own file has)."""
+    import pygltflib
+    from gltf_tools import validate
+
+    fox = tmp_path / "fox.toml"
+    assert main(["rig", str(FOX), "--out", str(fox)]) == 0
+    out = tmp_path / "fox_clips.glb"
+    assert main(["clips", str(fox), "--gaits", "walk,trot", "--out", str(out)]) == 0
+    clips = json.loads(out.with_suffix(".json").read_text())["clips"]
+    g = pygltflib.GLTF2().load(str(out))
+    assert [a.name for a in g.animations] == ["Survey", "Walk", "Run"] + [c["name"] for c in clips]
+    assert len(g.meshes) == 1 and g.images        # the Fox's textured mesh
+    source, ours = validate(FOX, out)
+    assert ours["issues"]["numErrors"] == 0
+    codes = {m["code"] for m in ours["issues"]["messages"] if m["severity"] == 1}
+    assert codes <= {m["code"] for m in source["issues"]["messages"] if m["severity"] == 1}
+    for c in clips:
+        if c["loop"]:
+            assert c["seam_m"] < 1e-4 and c["max_slide_mm"] < SLIDE_LIMIT_MM, c["name"]
