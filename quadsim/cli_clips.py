@@ -31,11 +31,18 @@ def _floats(text: str | None, flag: str) -> list[float] | None:
     return out
 
 
+def _warn(message: str) -> None:
+    print(f"quadsim: warning: {message}", file=sys.stderr)
+
+
 def _source(source: str):
     """The character and the frame rate (a config's, else 60) of a CLI source."""
     from quadsim.api import DEFAULT_FPS, _is_config, resolve
 
     config = resolve(source)
+    if config.mode != "procedural":
+        _warn(f"{source}: a clip set is made by the procedural controller (its stride is "
+              f"the CPG's); the config's mode {config.mode!r} does not apply")
     fps = config.fps if _is_config(source) else DEFAULT_FPS
     return config.load_character(), fps
 
@@ -58,6 +65,8 @@ def clips_command(args) -> int:
                          speeds=parse_speeds(args.speeds),
                          turn_rates=_floats(args.turn_rates, "--turn-rates"),
                          fps=args.fps if args.fps is not None else fps)
+    for message in plan.left_out:
+        _warn(message)
     total = len(plan.names())
     done = [0]
 

@@ -58,6 +58,8 @@ class ClipSetPlan:
     transitions : tuple of (str, str)
         Gait pairs with a transition clip, from the first to the second.
     fps : float
+    left_out : tuple of str
+        What was asked for and left out, and why (turn rates a gait cannot turn at).
     """
 
     gaits: tuple[str, ...]
@@ -66,6 +68,7 @@ class ClipSetPlan:
     starts: tuple[str, ...]
     transitions: tuple[tuple[str, str], ...]
     fps: float
+    left_out: tuple[str, ...] = ()
 
     def names(self) -> list[str]:
         """Every clip's name, in the set's order."""
@@ -152,7 +155,7 @@ def plan_clip_set(character, *, gaits=None, speeds=None, turn_rates=None,
         raise InputError(f"`--speeds` names {', '.join(left_out)}, which `--gaits` leaves "
                          f"out; add it to `--gaits` ({','.join(chosen)}) or drop its speeds")
     ctl = ProceduralController(character)
-    plan_speeds, plan_turns = {}, {}
+    plan_speeds, plan_turns, left_out = {}, {}, []
     for g in chosen:
         cap = ctl.gait_speed_cap(g)
         vs = asked.get(g) or _default_speeds(table[g])
@@ -167,8 +170,12 @@ def plan_clip_set(character, *, gaits=None, speeds=None, turn_rates=None,
         if turn_rates is None:
             plan_turns[g] = _turn_rates(top)
         else:
-            plan_turns[g] = tuple(float(r) for r in dict.fromkeys(turn_rates)
-                                  if 0 < float(r) <= top + 1e-9)
+            rates = [float(r) for r in dict.fromkeys(turn_rates)]
+            plan_turns[g] = tuple(r for r in rates if 0 < r <= top + 1e-9)
+            cannot = [f"{r:g}" for r in rates if r not in plan_turns[g]]
+            if cannot:
+                left_out.append(f"{g}: no turn loop at {', '.join(cannot)} deg/s (the {g} "
+                                f"turns at up to {top:.0f} deg/s at {vs[0]:.1f} m/s)")
     starts = tuple(g for g in START_GAITS if g in chosen)
     auto = [g for g in auto_gaits(character) if g in chosen]
     if not starts and auto:
@@ -176,7 +183,8 @@ def plan_clip_set(character, *, gaits=None, speeds=None, turn_rates=None,
     pairs = []
     for a, b in zip(auto[:-1], auto[1:]):
         pairs += [(a, b), (b, a)]
-    return ClipSetPlan(chosen, plan_speeds, plan_turns, starts, tuple(pairs), float(fps))
+    return ClipSetPlan(chosen, plan_speeds, plan_turns, starts, tuple(pairs), float(fps),
+                       tuple(left_out))
 
 
 def make_clip_set(character, plan: ClipSetPlan, *, progress=None) -> list[tuple[Clip, dict]]:

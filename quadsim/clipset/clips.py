@@ -265,7 +265,7 @@ def stop_clip(character, loop: Clip, stepper: Stepper, fps: float) -> Clip:
     still, last = 0, None
     for _ in range(int(MAX_STOP_SECONDS / dt)):
         stepper.step(cmd, dt)
-        row = stepper._last
+        row = stepper.last_row
         moved = np.inf if last is None else float(np.abs(row[_FEET] - last[_FEET]).max())
         last = row
         still = still + 1 if (moved < STILL and stepper.ctl.gait == "stand") else 0

@@ -27,6 +27,7 @@ import warnings
 
 import numpy as np
 
+from quadsim.clipset.rows import closure
 from quadsim.commands import Command
 from quadsim.locomotion.controller import ProceduralController
 from quadsim.locomotion.cpg import TWO_PI
@@ -128,6 +129,11 @@ class Stepper:
             self.step(command, dt)
 
     @property
+    def last_row(self) -> np.ndarray:
+        """The packed plan of the present state, shape (F,)."""
+        return self._last
+
+    @property
     def lh_phase(self) -> float:
         """The left hind oscillator's unwrapped phase (rad)."""
         return float(self.ctl.state.cpg.theta[0, LEFT_HIND])
@@ -216,8 +222,6 @@ def steady_cycle(stepper: Stepper, command: Command, fps: float, *, warm: float,
     closure : float
         The last loop's closure (see ``tol``).
     """
-    from quadsim.clipset.rows import closure
-
     dt0 = 1.0 / fps
     straight = Command(speed=command.speed, gait=command.gait)
     stepper.run(straight, warm, dt0)
