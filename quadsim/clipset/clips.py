@@ -100,7 +100,8 @@ def _warm(stepper: Stepper, speed: float) -> float:
 def _motion(character, rows, fps, rec, sl=slice(None)) -> Motion:
     return pose_rows(character, rows, fps, contacts=rec.contacts[sl], gaits=rec.gaits[sl],
                      extras={"phase": np.mod(rec.theta[sl] / (2 * np.pi), 1.0),
-                             "speed": rec.speed[sl], "duty": rec.duty[sl]})
+                             "speed": rec.speed[sl], "duty": rec.duty[sl],
+                             "heading": rows[:, HEADING]})
 
 
 def cycle_clips(character, gait: str, speed: float, fps: float, *, turn_deg_s: float = 0.0,

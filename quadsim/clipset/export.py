@@ -1,7 +1,8 @@
 """Writing a clip set: one ``.glb`` (or ``.fbx``) of named animations and its ``.json`` sidecar.
 
 - ``.glb``: quadsim's own characters as :func:`quadsim.io.gltf.write_glb` writes them
-  (skinned body, one animation per clip); a character adopted from the user's own
+  (skinned body, one animation per clip) with a ``root`` node on the ground for the
+  engines' root motion (``ground_root``); a character adopted from the user's own
   glTF model (``quadsim rig``) as that model with every clip added as an animation
   (:func:`quadsim.io.adopt.write_for_character`).
 - ``.fbx``: the ``.glb`` opened by Blender (its Python module ``bpy``, the
@@ -31,7 +32,14 @@ __all__ = ["FORMATS", "sidecar", "write_clip_set"]
 #: What ``write_clip_set`` writes, by extension.
 FORMATS = (".glb", ".fbx")
 
+#: The node that carries a clip's travel in quadsim's own characters' files.
+_GROUND = "root"
+
 _CONVENTIONS = {
+    "root_motion": "quadsim's own characters: the node 'root' (the scene root, on the "
+                   "ground under the root joint, turned to the heading) carries each clip's "
+                   "travel and turn; the root joint below it bobs and sways. A user's "
+                   "model: its own top joint carries them.",
     "axes": "+Y up, +Z forward (the character faces +Z at frame 0 of every clip), metres",
     "legs": ["LF", "RF", "LH", "RH"],
     "phase_origin": "frame 0 of every loop, start, stop and transition is a left hind (LH) "
@@ -84,10 +92,12 @@ def sidecar(character, plan, made, file_name: str) -> dict:
     from quadsim.io.gltf import _generator
 
     model = model_of(character)
+    own = model is None or model.suffix.lower() == ".bvh"
     return {
         "generator": _generator(), "character": character.id,
         "model": None if model is None else str(model), "file": file_name,
         "fps": plan.fps, "root_joint": character.skeleton.names[0],
+        "root_motion_node": _GROUND if own else character.skeleton.names[0],
         "foot_joints": list(character.foot_joints), **_CONVENTIONS,
         "clips": [_entry(i, c, f, plan.fps) for i, (c, f) in enumerate(made)],
     }
@@ -104,7 +114,7 @@ def _write_glb(character, motions, names, path: Path) -> None:
     else:
         from quadsim.io.gltf import write_glb
 
-        write_glb(motions, path, names=names)
+        write_glb(motions, path, names=names, ground_root=True)
 
 
 def require_bpy():
