@@ -148,17 +148,17 @@ def test_starts_and_transitions_end_on_the_loop_they_join_and_stops_leave_from_i
     by_name = {c.name: c for c, _ in made}
     from quadsim.clipset.rows import in_place
 
+    def apart(a, b):          # two plans seen from their own roots (m or rad)
+        ab = in_place(np.stack([a, b]))
+        return np.abs(ab[0] - ab[1]).max()
+
     for c, _ in made:
-        if c.kind not in ("start", "stop", "transition"):
-            continue
-        loop = by_name[c.info["joins"]]
-        mine = c.rows[0] if c.kind == "stop" else c.rows[-1]
-        ab = in_place(np.stack([mine, loop.rows[0]]))
-        assert np.abs(ab[0] - ab[1]).max() < 0.01, c.name     # m or rad
-        if c.kind == "transition":
-            src = by_name[c.info["from"]]
-            ab = in_place(np.stack([c.rows[0], src.rows[0]]))
-            assert np.abs(ab[0] - ab[1]).max() < 1e-4, c.name
+        if c.kind in ("start", "transition"):
+            assert apart(c.rows[-1], by_name[c.info["joins"]].rows[0]) < 0.01, c.name
+        if c.kind in ("stop", "transition"):
+            assert apart(c.rows[0], by_name[c.info["from"]].rows[0]) < 1e-4, c.name
+        if c.kind == "stop":
+            assert c.info["still"] and c.motion.gaits[-1] == "stand", c.name
 
 
 # ---------------------------------------------------------------- in place

@@ -275,7 +275,7 @@ def stop_clip(character, loop: Clip, stepper: Stepper, fps: float) -> Clip:
     rec = stepper.take(dt)
     rows = place(rec.rows)
     info = {"gait": gait, "speed": loop.info["speed"], "to_gait": "stand",
-            "joins": loop.name, "join_error": _join(rows[0], loop.rows[0]),
+            "from": loop.name, "start_error": _join(rows[0], loop.rows[0]),
             "time_scale": float(dt * fps), "still": bool(still * dt >= STILL_SECONDS)}
     return Clip(f"stop_{gait}", "stop", _motion(character, rows, fps, rec), rows, False, True,
                 info)
