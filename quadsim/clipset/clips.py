@@ -32,7 +32,8 @@ from quadsim.commands import Command
 from quadsim.locomotion.pose_kernel import FEET, HEADING, ROOT
 from quadsim.skeleton.motion import Motion
 
-__all__ = ["Clip", "cycle_clips", "start_clip", "stop_clip", "transition_clip"]
+__all__ = ["Clip", "blend_into", "cycle_clips", "speed_label", "start_clip", "stop_clip",
+           "tiled", "transition_clip"]
 
 #: Warm-up before a loop is cut: this long at least, plus the time to reach the
 #: speed at the controller's acceleration (s).
@@ -97,10 +98,12 @@ def _warm(stepper: Stepper, speed: float) -> float:
     return WARM_SECONDS + speed / stepper.ctl.settings.acceleration
 
 
-def _motion(character, rows, fps, rec, sl=slice(None)) -> Motion:
-    return pose_rows(character, rows, fps, contacts=rec.contacts[sl], gaits=rec.gaits[sl],
-                     extras={"phase": np.mod(rec.theta[sl] / (2 * np.pi), 1.0),
-                             "speed": rec.speed[sl], "duty": rec.duty[sl],
+def _motion(character, rows, fps, rec) -> Motion:
+    """The motion of placed plans ``rows`` with the recording's contacts, gaits, phases
+    (stride fractions), speeds (m/s), duty factors and the rows' headings (rad)."""
+    return pose_rows(character, rows, fps, contacts=rec.contacts, gaits=rec.gaits,
+                     extras={"phase": np.mod(rec.theta / (2 * np.pi), 1.0),
+                             "speed": rec.speed, "duty": rec.duty,
                              "heading": rows[:, HEADING]})
 
 
@@ -118,7 +121,7 @@ def cycle_clips(character, gait: str, speed: float, fps: float, *, turn_deg_s: f
     cmd = Command(speed=speed, gait=gait, turn_rate=math.radians(turn_deg_s))
     rec, n, gap = steady_cycle(stepper, cmd, fps, warm=_warm(stepper, speed))
     path = place(rec.rows)
-    local, spread = close_loop(in_place(path))
+    local, _ = close_loop(in_place(path))
     moving = on_path(local, path)
     base = {"gait": gait, "speed": float(speed), "turn_rate_deg_s": float(turn_deg_s),
             "strides": int(n), "time_scale": float(rec.dt * fps), "closure": float(gap),
@@ -292,17 +295,6 @@ def transition_clip(character, source: Clip, stepper: Stepper, target: Clip,
                      "to_speed": target.info["speed"], "from": source.name})
     clip.info["start_error"] = _join(clip.rows[0], source.rows[0])
     return clip
-
-
-def heading_turn(rows: np.ndarray) -> float:
-    """How far (deg) the heading turns from the first plan to the last."""
-    return float(np.degrees(rows[-1, HEADING] - rows[0, HEADING]))
-
-
-def travel(rows: np.ndarray) -> float:
-    """The root's horizontal travel from the first plan to the last (m)."""
-    d = rows[-1, [ROOT, ROOT + 2]] - rows[0, [ROOT, ROOT + 2]]
-    return float(np.hypot(*d))
 
 
 def tiled(clip: Clip, copies: int) -> np.ndarray:
