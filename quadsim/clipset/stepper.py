@@ -36,8 +36,10 @@ __all__ = ["LEFT_HIND", "Recording", "Stepper", "loop_step", "steady_cycle"]
 
 #: The leg whose touchdown starts every loop (LF, RF, LH, RH).
 LEFT_HIND = 2
-#: Longest loop, in strides, tried for a frame count close to a whole number.
-MAX_STRIDES = 3
+#: Longest loop tried for a frame count close to a whole number: this many strides,
+#: and no more than :data:`MAX_LOOP_SECONDS` (one stride at least).
+MAX_STRIDES = 6
+MAX_LOOP_SECONDS = 3.0
 #: A loop's time scale (frames at the clip rate against strides simulated) good
 #: enough to stop trying more strides.
 GOOD_SCALE = 0.005
@@ -187,10 +189,12 @@ def loop_step(freq: float, fps: float) -> tuple[int, int, float]:
     """The strides ``n``, frames ``N`` and step ``dt`` (s) of a loop at stride frequency
     ``freq`` (Hz) for a clip at ``fps``: ``N dt = n / freq`` exactly, with ``N`` the whole
     number of frames nearest to ``n fps / freq``; the fewest strides (at most
-    :data:`MAX_STRIDES`) whose time scale ``|N / (n fps / freq) - 1|`` is under
-    :data:`GOOD_SCALE`, else the strides with the least."""
+    :data:`MAX_STRIDES`, and :data:`MAX_LOOP_SECONDS`) whose time scale
+    ``|N / (n fps / freq) - 1|`` is under :data:`GOOD_SCALE`, else the strides with the
+    least."""
     best = None
-    for n in range(1, MAX_STRIDES + 1):
+    most = max(1, min(MAX_STRIDES, int(MAX_LOOP_SECONDS * freq)))
+    for n in range(1, most + 1):
         exact = n * fps / freq
         N = max(int(round(exact)), 2)
         scale = abs(N / exact - 1.0)
