@@ -384,3 +384,28 @@ def test_khronos_validator_reports_no_errors_or_warnings(case, validator_reports
     issues = validator_reports[case]["issues"]
     bad = [m for m in issues["messages"] if m["severity"] <= 1]
     assert (issues["numErrors"], issues["numWarnings"]) == (0, 0), bad
+
+
+def test_a_ground_root_carries_the_travel_and_the_joints_stay_where_they_were(tmp_path):
+    """``ground_root=True`` (clip sets for game engines): a ``root`` node, the scene root
+    and the skin's last joint, stands on the ground under the root joint turned to its
+    heading, and every joint's world position and rotation is the motion's as before."""
+    motion = simulate(load_character("leopard"), Command(speed=2.0, turn_rate=0.6), 3.0, 30)
+    glb = Glb(write_glb(motion, tmp_path / "ground.glb", ground_root=True))
+    nodes = glb.gltf.nodes
+    root = next(i for i, n in enumerate(nodes) if n.name == "root")
+    assert glb.gltf.scenes[0].nodes[0] == root and nodes[root].children == [0]
+    skin = glb.gltf.skins[0]
+    assert skin.joints[-1] == root and skin.skeleton == root
+    np.testing.assert_allclose(glb.accessor(skin.inverseBindMatrices)[-1],
+                               np.eye(4).reshape(-1), atol=0)
+    world = node_world_matrices(glb)
+    joints = world[:, joint_nodes(glb, motion)]
+    assert np.abs(joints[..., :3, 3] - motion.world_positions()).max() < ROUND_TRIP_TOL
+    assert np.abs(joints[..., :3, :3] - motion.world_rotations()).max() < 1e-5
+    ground = world[:, root]
+    np.testing.assert_allclose(ground[:, 1, 3], 0.0, atol=1e-7)
+    np.testing.assert_allclose(ground[:, [0, 2], 3], motion.root_positions[:, [0, 2]],
+                               atol=1e-4)
+    heading = np.arctan2(ground[:, 0, 2], ground[:, 2, 2])   # where its +Z points
+    np.testing.assert_allclose(np.unwrap(heading), motion.extras["heading"], atol=1e-5)

@@ -24,8 +24,10 @@ LAYERS = [
     ("quadsim.analysis", "quadsim.io", "quadsim.robots"),
     ("quadsim.config",),
     ("quadsim.api",),
+    ("quadsim.clipset",),
     ("quadsim.viz",),
-    ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_retarget", "quadsim.__main__", "quadsim"),
+    ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_clips", "quadsim.cli_retarget",
+     "quadsim.__main__", "quadsim"),
 ]
 
 #: Pairs of the same layer that must not import each other (either way).

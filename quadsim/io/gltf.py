@@ -23,6 +23,12 @@ What a file written by :func:`write_glb` holds:
   ``frame / fps`` from 0, stored as float32 with exact min and max. The
   sampling is ``LINEAR`` (slerp between frames), ``STEP`` or
   ``CUBICSPLINE`` (Catmull-Rom tangents, per second).
+- **Ground root** (``ground_root=True``, for game engines' root motion): one more
+  node, ``root``, the scene root and the skin's last joint (identity bind), standing
+  on the ground under the root joint and turned to its heading: its translation is
+  the root joint's ``(x, 0, z)``, its rotation the heading about +Y (the motion's
+  ``extras["heading"]``, rad; 0 without it); the root joint's keys are then relative
+  to it. Joint ``j`` is still node ``j``.
 - **Precision**: every number is float32. Joint world positions rebuilt from
   the file match the motion's within about ``1e-7`` times the distance from
   the origin (m), so within 1e-4 m for roots up to a few hundred metres away.
@@ -43,6 +49,7 @@ import numpy as np
 from quadsim.errors import InputError
 from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.body_mesh import body_mesh
+from quadsim.kinematics.rotations import quaternion_multiply
 from quadsim.skeleton.motion import Motion
 
 __all__ = ["SAMPLINGS", "write_glb"]
@@ -62,7 +69,7 @@ _SAME_SKELETON_TOL = 1e-9
 
 
 def write_glb(motions, path: str | os.PathLike, *, body: bool = True, names=None,
-              sampling: str = "LINEAR") -> Path:
+              sampling: str = "LINEAR", ground_root: bool = False) -> Path:
     """Write one or more motions of a skeleton as a glTF 2.0 binary file.
 
     Parameters
@@ -83,6 +90,8 @@ def write_glb(motions, path: str | os.PathLike, *, body: bool = True, names=None
         ``_2``, ``_3`` suffix.
     sampling : {"LINEAR", "STEP", "CUBICSPLINE"}
         Interpolation between frames stored in the animation samplers.
+    ground_root : bool
+        Add the ``root`` node on the ground (see the module's notes).
 
     Returns
     -------
@@ -112,12 +121,17 @@ def write_glb(motions, path: str | os.PathLike, *, body: bool = True, names=None
     rest = skel.rest_positions
     ibm = np.broadcast_to(np.eye(4), (J, 4, 4)).copy()
     ibm[:, :3, 3] = -rest
-    # column-major: the transpose of each matrix, flattened row by row
-    ibm_acc = b.accessor(np.ascontiguousarray(ibm.transpose(0, 2, 1)).reshape(J, 16),
-                         _FLOAT, name="inverse bind matrices")
-    skin = {"name": "skeleton", "joints": list(range(J)), "skeleton": 0,
-            "inverseBindMatrices": ibm_acc}
+    skin = {"name": "skeleton", "joints": list(range(J)), "skeleton": 0}
     scene_nodes = [0]
+    if ground_root:
+        nodes.append({"name": "root", "children": [0]})
+        ibm = np.concatenate([ibm, np.eye(4)[None]])
+        skin["joints"].append(J)
+        skin["skeleton"] = scene_nodes[0] = J
+    # column-major: the transpose of each matrix, flattened row by row
+    skin["inverseBindMatrices"] = b.accessor(
+        np.ascontiguousarray(ibm.transpose(0, 2, 1)).reshape(len(ibm), 16), _FLOAT,
+        name="inverse bind matrices")
     gltf: dict = {
         "asset": {"version": "2.0", "generator": _generator()},
         "scene": 0,
@@ -136,7 +150,8 @@ def write_glb(motions, path: str | os.PathLike, *, body: bool = True, names=None
             nodes.append({"name": "body", "mesh": 0, "skin": 0})
             scene_nodes.append(len(nodes) - 1)
     gltf["scenes"] = [{"name": "quadsim", "nodes": scene_nodes}]
-    gltf["animations"] = [_animation(b, m, name, sampling) for m, name in zip(motions, names)]
+    gltf["animations"] = [_animation(b, m, name, sampling, J if ground_root else None)
+                          for m, name in zip(motions, names)]
     gltf["accessors"] = b.accessors
     gltf["bufferViews"] = b.views
     blob = b.blob()
@@ -266,7 +281,24 @@ def _tangents(values: np.ndarray, dt: float) -> np.ndarray:
     return m
 
 
-def _animation(b: _Builder, motion: Motion, name: str, sampling: str) -> dict:
+def _on_ground(motion: Motion) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The ground root's translations (T, 3) and (w, x, y, z) rotations (T, 4), and the
+    root joint's translations (T, 3) and rotations (T, 4) relative to it."""
+    root = np.asarray(motion.root_positions, dtype=float)
+    T = len(root)
+    yaw = np.asarray(motion.extras.get("heading", np.zeros(T)), dtype=float).reshape(T)
+    ground = root * np.array([1.0, 0.0, 1.0])
+    half = 0.5 * yaw
+    q_yaw = np.stack([np.cos(half), np.zeros(T), np.sin(half), np.zeros(T)], axis=-1)
+    c, s = np.cos(yaw), np.sin(yaw)
+    d = root - ground
+    local = np.stack([c * d[:, 0] - s * d[:, 2], d[:, 1], s * d[:, 0] + c * d[:, 2]], -1)
+    inv = q_yaw * np.array([1.0, -1.0, -1.0, -1.0])
+    return ground, q_yaw, local, quaternion_multiply(inv, motion.rotations[:, 0])
+
+
+def _animation(b: _Builder, motion: Motion, name: str, sampling: str,
+               ground: int | None = None) -> dict:
     T, J = motion.rotations.shape[:2]
     times = (np.arange(T) / motion.fps).astype(np.float32)
     if T > 1 and np.any(np.diff(times) <= 0):
@@ -275,8 +307,11 @@ def _animation(b: _Builder, motion: Motion, name: str, sampling: str) -> dict:
     if sampling == "CUBICSPLINE" and T < 2:
         raise InputError(f"animation {name!r}: CUBICSPLINE sampling needs at least 2 frames")
     t_acc = b.accessor(times, _FLOAT, bounds=True, name=f"{name} times")
-    quats = _continuous_xyzw(motion.rotations)
-    root = motion.root_positions
+    rotations, root = motion.rotations, motion.root_positions
+    if ground is not None:
+        g_pos, g_rot, root, first = _on_ground(motion)
+        rotations = np.concatenate([first[:, None], rotations[:, 1:]], axis=1)
+    quats = _continuous_xyzw(rotations)
 
     def output(values: np.ndarray, label: str) -> int:
         if sampling == "CUBICSPLINE":
@@ -295,6 +330,12 @@ def _animation(b: _Builder, motion: Motion, name: str, sampling: str) -> dict:
     samplers.append({"input": t_acc, "output": output(root, "translation"),
                      "interpolation": sampling})
     channels.append({"sampler": J, "target": {"node": 0, "path": "translation"}})
+    if ground is not None:
+        for path, values in (("translation", g_pos), ("rotation", _continuous_xyzw(g_rot))):
+            samplers.append({"input": t_acc, "output": output(values, path),
+                             "interpolation": sampling})
+            channels.append({"sampler": len(samplers) - 1,
+                             "target": {"node": ground, "path": path}})
     return {"name": name, "samplers": samplers, "channels": channels,
             "extras": {"fps": motion.fps, "frames": T}}
 
