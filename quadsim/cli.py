@@ -15,6 +15,10 @@
     quadsim render CONFIG|FILE.bvh [--out FILE.mp4|.gif] [--seconds S] [--size WxH]
                    [--camera follow|side|top] [--fps N]
     quadsim rig MODEL.glb|.gltf|.bvh [--out CHARACTER.toml] [--id ID]
+    quadsim clips CHARACTER|CONFIG|MODEL --out SET.glb|SET.fbx [--speeds GAIT=V[,V...] ...]
+                  [--gaits G[,G...]] [--turn-rates DEG_S[,DEG_S...]] [--fps N]
+    quadsim retarget CHARACTER|CONFIG --robot URDF [--gait G] [--speed V] [--seconds S]
+                     [--fps N] --out REF.json|REF.npz
     quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
