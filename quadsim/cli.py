@@ -42,7 +42,7 @@ from quadsim.errors import InputError
 PROG = "quadsim"
 #: modules that each register a sub-command with ``register(subparsers)``; they import
 #: their heavy parts inside the command, so listing them costs nothing at start-up
-COMMAND_MODULES = ("quadsim.cli_rig",)
+COMMAND_MODULES = ("quadsim.cli_rig", "quadsim.cli_sweep")
 
 
 class _UsageError(Exception):
