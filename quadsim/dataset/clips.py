@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import io
 import math
-import os
 import tempfile
 import warnings
 import zipfile
@@ -177,8 +176,9 @@ def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
         together.
     out : str, optional
         The sweep's folder: each clip is written atomically to
-        ``out/<spec.path>``. Without it the bytes are returned instead (a
-        worker on another machine).
+        ``out/<spec.path>``, then its line appended to the manifest
+        (:func:`~quadsim.dataset.manifest.publish`). Without it the bytes are
+        returned instead (a worker on another machine).
 
     Returns
     -------
@@ -188,7 +188,7 @@ def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
         ``metrics``; without ``out`` also ``data`` (the file's bytes).
     """
     from quadsim import __version__
-    from quadsim.io.atomic import atomic_output
+    from quadsim.dataset.manifest import publish
 
     done = {}
     for group in _groups(specs):
@@ -198,11 +198,8 @@ def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
                      "frames": len(motion), "bytes": len(data), "quadsim": __version__,
                      "metrics": measure(motion)}
             if out is None:
-                entry["data"] = data
+                done[spec.id] = dict(entry, data=data)
             else:
-                with atomic_output(Path(out) / spec.path) as tmp:
-                    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-                    with os.fdopen(fd, "wb") as f:
-                        f.write(data)
-            done[spec.id] = entry
+                publish(out, entry, data)
+                done[spec.id] = entry
     return [done[s.id] for s in specs]

@@ -17,12 +17,16 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Iterable
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from quadsim.errors import InputError
 
-__all__ = ["MANIFEST", "Manifest", "compact", "read_manifest", "remove_leftovers"]
+__all__ = ["MANIFEST", "Manifest", "compact", "deferred_signals", "publish", "read_manifest",
+           "remove_leftovers"]
 
 #: The manifest's name inside a sweep's folder.
 MANIFEST = "manifest.jsonl"
@@ -48,6 +52,62 @@ def read_manifest(path) -> dict[str, dict]:
 
 def _line(entry: dict) -> str:
     return json.dumps(entry, separators=(", ", ": "), allow_nan=False) + "\n"
+
+
+@contextmanager
+def deferred_signals(signals=(signal.SIGTERM, signal.SIGINT)) -> Iterator[None]:
+    """Hold SIGTERM and SIGINT back while the block runs, then deliver them.
+
+    A signal received meanwhile is raised again, to the handlers of before,
+    when the block ends: a clip's file and its manifest line are written both
+    or neither. Outside the main thread it does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    old = {s: signal.signal(s, lambda signum, frame: got.append(signum)) for s in signals}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+        if got:
+            signal.raise_signal(got[0])
+
+
+def publish(folder, entry: dict, data: bytes) -> None:
+    """Write a finished clip's file (atomically) and then its manifest line, both or
+    neither: a stop meanwhile waits for the two (:func:`deferred_signals`).
+
+    Parameters
+    ----------
+    folder : path-like
+        The sweep's folder.
+    entry : dict
+        The clip's manifest entry; ``entry["path"]`` is its file, relative to
+        ``folder``.
+    data : bytes
+        The file's bytes.
+    """
+    from quadsim.io.atomic import atomic_output
+
+    folder = Path(folder)
+    line = _line(entry).encode("utf-8")
+    with deferred_signals():
+        with atomic_output(folder / entry["path"]) as tmp:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+        # one write of the whole line at the end of the file: the lines of
+        # workers appending at the same time never mix
+        fd = os.open(folder / MANIFEST, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o666)
+        try:
+            view = memoryview(line)
+            while view:
+                view = view[os.write(fd, view):]
+        finally:
+            os.close(fd)
 
 
 def remove_leftovers(folder) -> int:
@@ -121,13 +181,6 @@ class Manifest:
     def entries(self) -> dict[str, dict]:
         """The finished entries by id (see :func:`read_manifest`)."""
         return read_manifest(self.path)
-
-    def append(self, entries: Iterable[dict]) -> None:
-        """Add lines for finished clips (written and flushed to the operating system)."""
-        data = "".join(_line(e) for e in entries).encode("utf-8")
-        if data:
-            self._f.write(data)
-            self._f.flush()
 
     def close(self) -> None:
         """Flush to the disk and release the lock."""

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from quadsim.dataset.clips import make_clips
 from quadsim.dataset.grid import ClipSpec, Grid
-from quadsim.dataset.manifest import Manifest, compact, remove_leftovers
+from quadsim.dataset.manifest import Manifest, compact, publish, remove_leftovers
 from quadsim.errors import InputError
 
 __all__ = ["MAX_BATCH", "Progress", "SweepSummary", "cpu_count", "pending", "run_sweep",
@@ -36,6 +36,8 @@ __all__ = ["MAX_BATCH", "Progress", "SweepSummary", "cpu_count", "pending", "run
 MAX_BATCH = 32
 #: Tasks per worker a sweep is split into at least (so the workers finish together).
 TASKS_PER_WORKER = 4
+#: Seconds to wait for a Dask scheduler to answer.
+CONNECT_TIMEOUT = 10.0
 
 
 @dataclass(frozen=True)
@@ -227,7 +229,7 @@ def _dask_client(address: str):
         raise InputError(f"`--scheduler` {address}: Dask is not installed; install it with "
                          "`pip install \"quadsim[dask]\"` (here and on the workers)") from None
     try:
-        return Client(address, timeout="10s")
+        return Client(address, timeout=f"{CONNECT_TIMEOUT}s")
     except (OSError, TimeoutError, ValueError, TypeError) as e:
         raise InputError(f"`--scheduler` {address}: cannot reach a Dask scheduler there "
                          f"({e}); start one with `dask scheduler` and give its address, "
@@ -245,14 +247,12 @@ def _dask(tasks, client) -> Iterator[list[dict]]:
         client.cancel(futures)
 
 
-def _write(folder: Path, entries: list[dict]) -> None:
-    """Write the bytes a remote worker sent (atomically), dropping them from the entries."""
-    from quadsim.io.atomic import atomic_write_bytes
-
+def _publish(folder: Path, entries: list[dict]) -> None:
+    """Write the clips a remote worker sent back, and their manifest lines."""
     for e in entries:
         data = e.pop("data", None)
         if data is not None:
-            atomic_write_bytes(folder / e["path"], data)
+            publish(folder, e, data)
 
 
 # ------------------------------------------------------------------ the sweep
@@ -323,8 +323,7 @@ def run_sweep(grid: Grid, out, *, workers: int | None = None, scheduler: str | N
                 progress(Progress(0, len(todo), time.perf_counter() - t0))
             try:
                 for entries in results:
-                    _write(folder, entries)
-                    manifest.append(entries)
+                    _publish(folder, entries)
                     made += len(entries)
                     frames += sum(e["frames"] for e in entries)
                     size += sum(e["bytes"] for e in entries)
