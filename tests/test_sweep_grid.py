@@ -136,7 +136,9 @@ def test_a_batched_clip_is_the_lone_simulation_bit_for_bit():
         assert np.array_equal(alone.contacts, m.contacts)
         assert list(alone.gaits) == list(m.gaits)
         assert npz_bytes(alone) == npz_bytes(m)
-    few = generate(clips[3:5])
+    fewer = generate(clips[4:10])    # another batch
+    few = generate(clips[3:5])       # too few to batch: simulated one by one
+    assert [npz_bytes(m) for m in fewer] == [npz_bytes(m) for m in together[4:10]]
     assert [npz_bytes(m) for m in few] == [npz_bytes(m) for m in together[3:5]]
 
 

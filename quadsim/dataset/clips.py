@@ -28,10 +28,13 @@ import numpy as np
 
 from quadsim.dataset.grid import ClipSpec
 
-__all__ = ["ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure", "npz_bytes"]
+__all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure", "npz_bytes"]
 
 #: The date every entry of a sweep's ``.npz`` carries (zip's earliest).
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+#: Fewest clips stepped together by a BatchController: below, each clip is
+#: simulated alone, which is faster there (the same bytes either way).
+BATCH_MIN_ROWS = 5
 
 _CHARACTERS: dict[tuple[str, str], object] = {}
 
@@ -67,7 +70,8 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     -------
     list of Motion
         One per spec, ``frames`` long, as :func:`quadsim.simulate` gives it
-        (planned contacts, gait labels, extras).
+        (planned contacts, gait labels, extras); fewer than
+        :data:`BATCH_MIN_ROWS` clips are simulated one by one.
     """
     from quadsim.config import constant_command
     from quadsim.kinematics.rotations import quaternions_from_matrices
@@ -82,6 +86,13 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     n, T, dt = len(specs), first.frames, 1.0 / first.fps
     cmds = [constant_command(ch, speed=s.speed, gait=s.gait, turn_rate_deg_s=s.turn_rate_deg_s)
             for s in specs]
+    if n < BATCH_MIN_ROWS:
+        from quadsim.api import simulate
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return [simulate(ch, c, seconds=s.seconds, fps=s.fps, seed=s.seed)
+                    for s, c in zip(specs, cmds)]
     b = BatchController([ch] * n, dt=dt, seeds=[s.seed for s in specs],
                         gaits=[c.gait for c in cmds])
     speed = np.array([c.speed for c in cmds], dtype=float)

@@ -34,8 +34,10 @@ __all__ = ["MAX_BATCH", "Progress", "SweepSummary", "cpu_count", "pending", "run
 
 #: Most clips stepped together in one task.
 MAX_BATCH = 32
+#: Most character-frames in one task (its arrays: about 2.4 kB a frame of 34 joints).
+MAX_BATCH_FRAMES = 16384
 #: Tasks per worker a sweep is split into at least (so the workers finish together).
-TASKS_PER_WORKER = 4
+TASKS_PER_WORKER = 2
 #: Seconds to wait for a Dask scheduler to answer.
 CONNECT_TIMEOUT = 10.0
 
@@ -130,15 +132,17 @@ def pending(grid_clips: Sequence[ClipSpec], entries: dict, folder) -> list[ClipS
 
 def tasks_of(clips: Sequence[ClipSpec], workers: int) -> list[tuple[ClipSpec, ...]]:
     """Split clips into tasks: each of one character, length and frame rate, of at most
-    :data:`MAX_BATCH` clips, and at least :data:`TASKS_PER_WORKER` tasks a worker
-    when there are enough clips; in the grid's order."""
+    :data:`MAX_BATCH` clips and :data:`MAX_BATCH_FRAMES` character-frames, and at
+    least :data:`TASKS_PER_WORKER` tasks a worker when there are enough clips; in the
+    grid's order."""
     size = max(1, min(MAX_BATCH, math.ceil(len(clips) / (TASKS_PER_WORKER * max(workers, 1)))))
     groups: dict[tuple, list[ClipSpec]] = {}
     for c in clips:
         groups.setdefault((c.source, c.digest, c.seconds, c.fps), []).append(c)
     out = []
     for g in groups.values():
-        out += [tuple(g[i:i + size]) for i in range(0, len(g), size)]
+        k = max(1, min(size, MAX_BATCH_FRAMES // g[0].frames))
+        out += [tuple(g[i:i + k]) for i in range(0, len(g), k)]
     first = {c.id: k for k, c in enumerate(clips)}
     return sorted(out, key=lambda t: first[t[0].id])
 
