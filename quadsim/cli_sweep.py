@@ -73,6 +73,7 @@ class ProgressBar:
 def sweep_command(args) -> int:
     """`quadsim sweep GRID.toml ...`: run the sweep, print its summary."""
     from quadsim.dataset import MANIFEST, load_grid, run_sweep
+    from quadsim.dataset.grid import clamps
 
     grid_path = Path(args.grid)
     if grid_path.suffix.lower() != ".toml":
@@ -89,6 +90,8 @@ def sweep_command(args) -> int:
                          "with its protocol, e.g. tcp://HOST:8786")
     grid = load_grid(grid_path)
     out = Path(args.out) if args.out else Path("out") / grid_path.stem
+    for message in clamps(grid.clips()):
+        print(f"quadsim: warning: {grid_path}: {message}", file=sys.stderr)
     bar = ProgressBar()
     try:
         s = run_sweep(grid, out, workers=args.workers, scheduler=args.scheduler,
@@ -96,6 +99,10 @@ def sweep_command(args) -> int:
     finally:
         bar.close()
     rest = f", {s.remaining} still to make (run again)" if s.remaining else ""
+    if not s.made:
+        print(f"{s.folder}: nothing to make: the {s.clips} clips of the grid are there"
+              f"{rest}; manifest {Path(s.folder) / MANIFEST}")
+        return 0
     print(f"{s.folder}: {s.made} clip{'' if s.made == 1 else 's'} made, {s.skipped} already "
           f"there, {s.clips} in the grid{rest}; {s.seconds:.1f} s on {s.workers}: "
           f"{s.clips_per_second:.1f} clips/s, {s.frames_per_second:,.0f} character-frames/s, "

@@ -158,3 +158,32 @@ def test_the_npz_is_a_plain_npz_with_fixed_dates(tmp_path):
         assert sorted(f.files) == sorted(want)
         for k, v in want.items():
             assert np.array_equal(f[k], v)
+
+
+def test_what_the_controller_will_clamp_is_said_once_per_case():
+    from quadsim.dataset.grid import clamps
+
+    clips = parse_grid({"characters": "horse", "gaits": ["walk", "trot"], "speeds": [1.5, 3.0],
+                        "turn_rates_deg_s": [0, 200], "seeds": [0, 1], "seconds": 1}).clips()
+    said = clamps(clips)
+    assert len(said) == len(set(said))
+    assert any("`speeds`: 3 m/s" in m and "walk of horse" in m for m in said)
+    assert any("`turn_rates_deg_s`: 200 deg/s" in m for m in said)
+    assert not any("trot of horse" in m and "`speeds`" in m for m in said)
+    assert clamps(parse_grid(DONE_WHEN).clips()) == []
+
+
+def test_the_progress_bar_shows_clips_rate_and_time_left():
+    import io
+
+    from quadsim.cli_sweep import ProgressBar
+    from quadsim.dataset import Progress
+
+    line = ProgressBar.line(Progress(6, 24, 2.0), width=8)
+    assert line == "[##------] 6/24 clips  3.0 clips/s  ETA 00:06"
+    assert ProgressBar.line(Progress(0, 24, 0.5)).endswith("ETA --:--")
+    pipe = io.StringIO()
+    bar = ProgressBar(pipe)  # not a terminal: nothing drawn
+    bar(Progress(1, 2, 1.0))
+    bar.close()
+    assert pipe.getvalue() == ""

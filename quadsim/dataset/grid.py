@@ -31,7 +31,7 @@ from pathlib import Path
 
 from quadsim.errors import InputError, read_toml
 
-__all__ = ["DEFAULTS", "FORMATS", "KEYS", "ClipSpec", "Grid", "load_grid", "parse_grid"]
+__all__ = ["DEFAULTS", "FORMATS", "KEYS", "ClipSpec", "Grid", "clamps", "load_grid", "parse_grid"]
 
 #: The formats a sweep writes, each clip one file of that extension.
 FORMATS = ("npz", "bvh", "glb")
@@ -168,6 +168,35 @@ class Grid:
 
     def __len__(self) -> int:
         return len(self.clips())
+
+
+def clamps(clips) -> list[str]:
+    """What the controller will clamp in these clips, once per distinct case.
+
+    A speed above what a gait is held at (15 % above its range, at most the
+    character's top speed), or a turn rate above the character's maximum at
+    the speed it runs, is clamped by the controller (silently in a sweep: the
+    measured speed in the manifest shows it). Returns one message each.
+    """
+    from quadsim.locomotion.controller import ProceduralController
+    from quadsim.skeleton.character import load_character
+
+    out: dict[str, None] = {}
+    ctl: dict[str, ProceduralController] = {}
+    for c in clips:
+        k = ctl.get(c.source)
+        if k is None:
+            k = ctl[c.source] = ProceduralController(load_character(c.source))
+        cap = k.gait_speed_cap(c.gait)
+        if c.speed > cap:
+            out[f"`speeds`: {c.speed:g} m/s is above what the {c.gait} of {c.character} "
+                f"reaches; its clips run at {cap:.2f} m/s"] = None
+        limit = math.degrees(k.max_turn_rate_at(min(c.speed, cap)))
+        if abs(c.turn_rate_deg_s) > limit:
+            out[f"`turn_rates_deg_s`: {c.turn_rate_deg_s:g} deg/s is beyond what "
+                f"{c.character} turns at {min(c.speed, cap):.2f} m/s in the {c.gait} "
+                f"({limit:.1f} deg/s); clamped"] = None
+    return list(out)
 
 
 def _gait_table(character):

@@ -95,7 +95,10 @@ def publish(folder, entry: dict, data: bytes) -> None:
     folder = Path(folder)
     line = _line(entry).encode("utf-8")
     with deferred_signals():
-        with atomic_output(folder / entry["path"]) as tmp:
+        # not flushed to the disk clip by clip (it would cost more than making the
+        # clip): after a crash of the machine, a clip whose size is not the one
+        # its line records is made again (sweep.pending)
+        with atomic_output(folder / entry["path"], sync=False) as tmp:
             fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
