@@ -227,11 +227,9 @@ def _local(tasks, out: str, workers: int) -> Iterator[list[dict]]:
 
 
 def _dask_client(address: str):
-    try:
-        from dask.distributed import Client
-    except ImportError:
-        raise InputError(f"`--scheduler` {address}: Dask is not installed; install it with "
-                         "`pip install \"quadsim[dask]\"` (here and on the workers)") from None
+    from quadsim._optional import require
+
+    Client = require("distributed", f"`--scheduler` {address}", extra="dask").Client
     try:
         return Client(address, timeout=f"{CONNECT_TIMEOUT}s")
     except (OSError, TimeoutError, ValueError, TypeError) as e:
