@@ -187,3 +187,14 @@ def test_the_progress_bar_shows_clips_rate_and_time_left():
     bar(Progress(1, 2, 1.0))
     bar.close()
     assert pipe.getvalue() == ""
+
+
+def test_the_measured_figures_are_those_of_quadsim_metrics():
+    from quadsim.analysis.appearance import appearance_report
+    from quadsim.analysis.metrics import motion_report
+    from quadsim.dataset import measure
+
+    (c,) = parse_grid({"characters": "leopard", "gaits": "trot", "seconds": 2}).clips()
+    (m,) = generate([c])
+    want = dict(motion_report(m), appearance=appearance_report(m))
+    assert measure(m) == want and measure(m) == want  # the anatomy found once is the same

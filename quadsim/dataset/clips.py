@@ -37,6 +37,7 @@ ZIP_DATE = (1980, 1, 1, 0, 0, 0)
 BATCH_MIN_ROWS = 5
 
 _CHARACTERS: dict[tuple[str, str], object] = {}
+_ANATOMY: dict[tuple, tuple] = {}  # each skeleton's anatomy, found once
 
 
 def _load(spec: ClipSpec):
@@ -133,11 +134,17 @@ def measure(motion) -> dict:
     ``appearance``, what a viewer sees (None when it cannot be measured)."""
     from quadsim.analysis.appearance import appearance_report
     from quadsim.analysis.metrics import motion_report
+    from quadsim.skeleton.anatomy import find_anatomy
 
     report = motion_report(motion)
+    key = (id(motion.skeleton), tuple(motion.foot_joints))
     try:
-        report["appearance"] = appearance_report(motion)
-    except ValueError:
+        hit = _ANATOMY.get(key)
+        if hit is None or hit[0] is not motion.skeleton:
+            hit = _ANATOMY[key] = (motion.skeleton,
+                                   find_anatomy(motion.skeleton, motion.foot_joints))
+        report["appearance"] = appearance_report(motion, anatomy=hit[1])
+    except ValueError:  # no quadruped structure to measure the trunk and head on
         report["appearance"] = None
     return report
 
