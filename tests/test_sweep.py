@@ -158,6 +158,39 @@ def test_sigterm_part_way_then_again_gives_the_same_24_files(reference, grid, tm
     assert same_tree(reference, out) and hidden(out) == []
 
 
+def _children(pid: int) -> list[int]:
+    out = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                fields = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            if int(fields[1]) == pid:
+                out.append(int(d.name))
+    return out
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux's /proc")
+def test_a_worker_killed_outright_is_one_message_and_a_rerun_finishes(reference, grid,
+                                                                      tmp_path):
+    out = tmp_path / "worker-killed"
+    p = sweep(grid, "--out", out, "--workers", 2)
+    deadline = time.monotonic() + 120
+    kids: list[int] = []
+    while time.monotonic() < deadline and p.poll() is None and not kids:
+        kids = _children(p.pid)
+        time.sleep(0.005)
+    assert kids, "no worker process seen"
+    os.kill(kids[0], signal.SIGKILL)
+    code, _, err = finish(p)
+    assert code == 2 and "worker process stopped unexpectedly" in err, err
+    assert "Traceback" not in err
+    code, _, err = finish(sweep(grid, "--out", out, "--workers", 2))
+    assert code == 0, err
+    assert same_tree(reference, out) and hidden(out) == []
+
+
 def test_limit_then_the_rest_and_a_torn_line_and_a_leftover(reference, grid, tmp_path):
     out = tmp_path / "limited"
     g = load_grid(grid)

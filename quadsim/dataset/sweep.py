@@ -215,10 +215,18 @@ def _local(tasks, out: str, workers: int) -> Iterator[list[dict]]:
         _warm_up(tasks)
     pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx,
                                initializer=_worker_init)
+    from concurrent.futures.process import BrokenProcessPool
+
     try:
-        futures = [pool.submit(make_clips, t, out) for t in tasks]
-        for f in as_completed(futures):
-            yield f.result()
+        try:
+            futures = [pool.submit(make_clips, t, out) for t in tasks]
+            for f in as_completed(futures):
+                yield f.result()
+        except BrokenProcessPool:
+            raise InputError(f"a worker process stopped unexpectedly (killed, or out of "
+                             f"memory?); the finished clips in {out} are kept: run the same "
+                             "command again to make the rest (with fewer --workers if memory "
+                             "is short)") from None
     except BaseException:
         _stop_workers(pool)
         pool.shutdown(wait=False, cancel_futures=True)
