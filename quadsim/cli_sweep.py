@@ -23,7 +23,7 @@ __all__ = ["ProgressBar", "register", "sweep_command"]
 def _duration(seconds: float | None) -> str:
     if seconds is None:
         return "--:--"
-    s = int(round(seconds))
+    s = round(seconds)
     h, m = divmod(s, 3600)
     m, s = divmod(m, 60)
     return f"{h}:{m:02d}:{s:02d}" if h else f"{m:02d}:{s:02d}"

@@ -62,7 +62,7 @@ def same_tree(a: Path, b: Path) -> bool:
     names = sorted(p.name for p in (a / "clips").iterdir())
     if names != sorted(p.name for p in (b / "clips").iterdir()):
         return False
-    match, mismatch, errors = filecmp.cmpfiles(a / "clips", b / "clips", names, shallow=False)
+    _, mismatch, errors = filecmp.cmpfiles(a / "clips", b / "clips", names, shallow=False)
     return not mismatch and not errors and \
         (a / MANIFEST).read_bytes() == (b / MANIFEST).read_bytes()
 
@@ -217,9 +217,8 @@ def test_a_clip_whose_file_is_gone_is_made_again(reference, grid, tmp_path):
 
 
 def test_two_sweeps_cannot_write_one_folder_at_once(tmp_path):
-    with Manifest(tmp_path / "busy"):
-        with pytest.raises(InputError, match="another sweep"):
-            Manifest(tmp_path / "busy")
+    with Manifest(tmp_path / "busy"), pytest.raises(InputError, match="another sweep"):
+        Manifest(tmp_path / "busy")
     Manifest(tmp_path / "busy").close()  # free again
 
 
@@ -255,29 +254,30 @@ def test_a_dask_scheduler_and_worker_on_loopback_give_the_same_bytes(reference, 
     logs = tmp_path / "logs"
     logs.mkdir()
     procs = []
-    try:
-        procs.append(subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port",
-             str(port), "--no-dashboard"], env=env(), cwd=tmp_path,
-            stdout=open(logs / "scheduler.log", "w"), stderr=subprocess.STDOUT))
-        procs.append(subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads", "1",
-             "--nworkers", "2", "--no-dashboard", "--local-directory", str(tmp_path / "w")],
-            env=env(), cwd=tmp_path, stdout=open(logs / "worker.log", "w"),
-            stderr=subprocess.STDOUT))
-        from distributed import Client
+    with open(logs / "scheduler.log", "w") as slog, open(logs / "worker.log", "w") as wlog:
+        try:
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                 "--port", str(port), "--no-dashboard"], env=env(), cwd=tmp_path,
+                stdout=slog, stderr=subprocess.STDOUT))
+            procs.append(subprocess.Popen(
+                [sys.executable, "-m", "distributed.cli.dask_worker", address, "--nthreads",
+                 "1", "--nworkers", "2", "--no-dashboard", "--local-directory",
+                 str(tmp_path / "w")], env=env(), cwd=tmp_path, stdout=wlog,
+                stderr=subprocess.STDOUT))
+            from distributed import Client
 
-        with Client(address, timeout="60s") as c:
-            c.wait_for_workers(2, timeout=120)
-        code, stdout, err = finish(sweep(grid, "--out", tmp_path / "dask", "--scheduler",
-                                         address))
-        assert code == 0, err
-        assert "24 clips made" in stdout and "Dask" in stdout
-        assert same_tree(reference, tmp_path / "dask")
-        assert hidden(tmp_path / "dask") == []
-    finally:
-        for p in reversed(procs):
-            _stop(p)
+            with Client(address, timeout="60s") as c:
+                c.wait_for_workers(2, timeout=120)
+            code, stdout, err = finish(sweep(grid, "--out", tmp_path / "dask", "--scheduler",
+                                             address))
+            assert code == 0, err
+            assert "24 clips made" in stdout and "Dask" in stdout
+            assert same_tree(reference, tmp_path / "dask")
+            assert hidden(tmp_path / "dask") == []
+        finally:
+            for p in reversed(procs):
+                _stop(p)
 
 
 def test_an_unreachable_scheduler_is_an_input_error(grid, tmp_path, monkeypatch):
