@@ -5,7 +5,8 @@
 The clips are the issue's grid -- leopard and dog cub, walk, trot and
 canter at their preferred speeds, turn rates 0 and 20 deg/s, 4 s at 60 fps
 -- with K seeds (default 16: 192 clips, 46,080 character-frames). Measured,
-each the median of R repeats (default 3) of wall-clock time:
+each the median of R repeats (default 3) of wall-clock time (and CPU time, steadier on a
+shared machine):
 
 - ``in_memory``: :class:`~quadsim.locomotion.batch.BatchController` stepping
   the same clips, posed, one batch per character, nothing kept or written
@@ -90,18 +91,22 @@ def in_memory(clips, repeats: int) -> dict:
             speed = np.array([c.speed for c in cmds])
             turn = np.array([c.turn_rate or 0.0 for c in cmds])
             gait = b.gait_ids([c.gait for c in cmds])
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             for _ in range(group[0].frames):
                 b.step(speed, turn, None, gait, pose=True)
             t += time.perf_counter() - t0
+            cpu[0] += time.process_time() - c0
         return t
 
+    cpu = [0.0]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         once()  # warm
+        cpu[0] = 0.0
         runs = [once() for _ in range(repeats)]
     frames = sum(c.frames for c in clips)
-    return {"frames": frames, "seconds": runs, "frames_per_s": frames / _median(runs)}
+    return {"frames": frames, "seconds": runs, "frames_per_s": frames / _median(runs),
+            "frames_per_cpu_s": frames * repeats / cpu[0]}
 
 
 def stages(clips, repeats: int) -> dict:
@@ -141,6 +146,15 @@ def stages(clips, repeats: int) -> dict:
             "share": {k: v / total for k, v in ms.items()}, "repeats": runs}
 
 
+def _cpu() -> float:
+    """CPU seconds of this process and of its finished children."""
+    import resource
+
+    me, kids = (resource.getrusage(w) for w in (resource.RUSAGE_SELF,
+                                                 resource.RUSAGE_CHILDREN))
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def end_to_end(g, workers: list[int], repeats: int) -> dict:
     """run_sweep into an empty folder, for each number of local workers."""
     from quadsim.dataset import run_sweep
@@ -149,19 +163,21 @@ def end_to_end(g, workers: list[int], repeats: int) -> dict:
     clips = g.clips()
     frames = sum(c.frames for c in clips)
     for n in workers:
-        runs = []
+        runs, cpus = [], []
         for _ in range(repeats):
             tmp = Path(tempfile.mkdtemp(prefix="quadsim-bench-sweep-"))
             try:
-                t0 = time.perf_counter()
+                c0, t0 = _cpu(), time.perf_counter()
                 s = run_sweep(g, tmp / "data", workers=n)
                 runs.append(time.perf_counter() - t0)
+                cpus.append(_cpu() - c0)
                 assert s.made == len(clips)
             finally:
                 shutil.rmtree(tmp, ignore_errors=True)
         t = _median(runs)
-        out[str(n)] = {"seconds": runs, "clips_per_s": len(clips) / t,
-                       "frames_per_s": frames / t, "ms_per_clip": 1e3 * t / len(clips)}
+        out[str(n)] = {"seconds": runs, "cpu_seconds": cpus, "clips_per_s": len(clips) / t,
+                       "frames_per_s": frames / t, "ms_per_clip": 1e3 * t / len(clips),
+                       "cpu_ms_per_clip": 1e3 * _median(cpus) / len(clips)}
     return out
 
 
@@ -238,7 +254,8 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
         f"{cores} CPUs")
     mem = in_memory(clips, repeats)
     log(f"  BatchController in memory (posed, one batch per character): "
-        f"{mem['frames_per_s']:,.0f} character-frames/s")
+        f"{mem['frames_per_s']:,.0f} character-frames/s "
+        f"({mem['frames_per_cpu_s']:,.0f} per CPU second)")
     st = stages(clips, repeats)
     parts = ", ".join(f"{k} {v:.2f} ms ({100 * st['share'][k]:.0f} %)"
                       for k, v in st["ms_per_clip"].items())
@@ -246,7 +263,8 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
     e2e = end_to_end(g, workers, repeats)
     for n, r in e2e.items():
         log(f"  end to end, {n} worker{'s' if n != '1' else ''}: {r['clips_per_s']:.1f} clips/s, "
-            f"{r['frames_per_s']:,.0f} character-frames/s, {r['ms_per_clip']:.2f} ms a clip")
+            f"{r['frames_per_s']:,.0f} character-frames/s, {r['ms_per_clip']:.2f} ms a clip "
+            f"({r['cpu_ms_per_clip']:.2f} ms of CPU)")
     files = files_only(g, 2, repeats)
     log(f"  files only (nothing measured), 2 workers: {files['clips_per_s']:.1f} clips/s, "
         f"{files['frames_per_s']:,.0f} character-frames/s "

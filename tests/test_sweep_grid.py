@@ -198,3 +198,11 @@ def test_the_measured_figures_are_those_of_quadsim_metrics():
     (m,) = generate([c])
     want = dict(motion_report(m), appearance=appearance_report(m))
     assert measure(m) == want and measure(m) == want  # the anatomy found once is the same
+
+
+def test_an_out_that_is_a_file_is_refused(tmp_path, capsys):
+    grid = write(tmp_path, "characters = ['leopard']\ngaits = ['trot']\nseconds = 1\n")
+    (tmp_path / "taken").write_text("mine\n")
+    assert main(["sweep", str(grid), "--out", str(tmp_path / "taken")]) == 2
+    assert "--out" in capsys.readouterr().err
+    assert (tmp_path / "taken").read_text() == "mine\n"
