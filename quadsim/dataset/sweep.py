@@ -26,7 +26,14 @@ from pathlib import Path
 
 from quadsim.dataset.clips import make_clips
 from quadsim.dataset.grid import ClipSpec, Grid
-from quadsim.dataset.manifest import Manifest, compact, publish, remove_leftovers
+from quadsim.dataset.manifest import (
+    MANIFEST,
+    Manifest,
+    compact,
+    publish,
+    read_manifest,
+    remove_leftovers,
+)
 from quadsim.errors import InputError
 
 __all__ = ["MAX_BATCH", "Progress", "SweepSummary", "cpu_count", "pending", "run_sweep",
@@ -216,7 +223,9 @@ def _local(tasks, out: str, workers: int) -> Iterator[list[dict]]:
     try:
         try:
             futures = [pool.submit(make_clips, t, out) for t in tasks]
-            for f in as_completed(futures):
+            finished = as_completed(futures)
+            del futures  # as_completed lets go of each future it yields: results do not pile up
+            for f in finished:
                 yield f.result()
         except BrokenProcessPool:
             raise InputError(f"a worker process stopped unexpectedly (killed, or out of "
@@ -246,11 +255,19 @@ def _dask(tasks, client) -> Iterator[list[dict]]:
     from dask.distributed import as_completed
 
     futures = client.map(make_clips, tasks, pure=False)
+    waiting = set(futures)
+    finished = as_completed(futures)
+    del futures
     try:
-        for f in as_completed(futures):
-            yield f.result()
+        for f in finished:
+            entries = f.result()
+            waiting.discard(f)
+            f.release()  # the cluster forgets the clips' bytes
+            del f
+            yield entries
     finally:
-        client.cancel(futures)
+        if waiting:
+            client.cancel(list(waiting))
 
 
 def _publish(folder: Path, entries: list[dict]) -> None:
@@ -303,27 +320,33 @@ def run_sweep(grid: Grid, out, *, workers: int | None = None, scheduler: str | N
         raise InputError(f"`--out` {str(folder)!r} is a file; give a folder")
     clips = grid.clips()
     t0 = time.perf_counter()
-    with Manifest(folder) as manifest:
+    client = None
+    if scheduler and pending(clips, read_manifest(folder / MANIFEST), folder):
+        client = _dask_client(scheduler)  # before the folder is made: nothing if it fails
+    try:
+        manifest = Manifest(folder)
+    except BaseException:
+        if client is not None:
+            client.close()
+        raise
+    with manifest:
         remove_leftovers(folder)
         todo = pending(clips, manifest.entries(), folder)
         skipped = len(clips) - len(todo)
         if limit is not None:
             todo = todo[:limit]
-        client = _dask_client(scheduler) if scheduler and todo else None
         try:
             if client is not None:
                 n = max(1, sum(client.nthreads().values()))
+                tasks = tasks_of(todo, n)
                 label = f"Dask at {scheduler} ({n} threads)"
-            else:
-                n = workers
-                label = "1 process" if n == 1 else f"{n} local processes"
-            tasks = tasks_of(todo, n)
-            if client is not None:
                 results = _dask(tasks, client)
-            elif n == 1 or len(tasks) <= 1:
-                results = _inline(tasks, str(folder))
             else:
-                results = _local(tasks, str(folder), n)
+                tasks = tasks_of(todo, workers)
+                n = min(workers, len(tasks))
+                label = "1 process" if n <= 1 else f"{n} local processes"
+                results = _inline(tasks, str(folder)) if n <= 1 else \
+                    _local(tasks, str(folder), n)
             made = frames = size = 0
             if progress:
                 progress(Progress(0, len(todo), time.perf_counter() - t0))
