@@ -44,7 +44,7 @@ class ProgressBar:
         self.stream = sys.stderr if stream is None else stream
         self.width = width
         self.live = bool(getattr(self.stream, "isatty", lambda: False)())
-        self._shown = False
+        self._shown = 0  # the length of the line drawn
 
     @staticmethod
     def line(p, width: int = 28) -> str:
@@ -58,16 +58,17 @@ class ProgressBar:
     def __call__(self, p) -> None:
         if not self.live:
             return
-        self.stream.write("\r" + self.line(p, self.width))
+        text = self.line(p, self.width)
+        self.stream.write("\r" + text.ljust(self._shown))  # a shorter line covers the last
         self.stream.flush()
-        self._shown = True
+        self._shown = len(text)
 
     def close(self) -> None:
         """End the bar's line (if one was drawn)."""
         if self._shown:
             self.stream.write("\n")
             self.stream.flush()
-            self._shown = False
+            self._shown = 0
 
 
 def sweep_command(args) -> int:

@@ -206,3 +206,23 @@ def test_an_out_that_is_a_file_is_refused(tmp_path, capsys):
     assert main(["sweep", str(grid), "--out", str(tmp_path / "taken")]) == 2
     assert "--out" in capsys.readouterr().err
     assert (tmp_path / "taken").read_text() == "mine\n"
+
+
+def test_on_a_terminal_the_bar_is_redrawn_in_place_and_ended():
+    import io
+
+    from quadsim.cli_sweep import ProgressBar
+    from quadsim.dataset import Progress
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    tty = Tty()
+    bar = ProgressBar(tty, width=4)
+    bar(Progress(0, 10, 0.0))
+    bar(Progress(10, 10, 2.0))
+    bar.close()
+    first, second = tty.getvalue().split("\r")[1:]
+    assert first.startswith("[----] 0/10") and second.startswith("[####] 10/10 clips  5.0")
+    assert second.endswith("\n") and len(second) >= len(first)
