@@ -18,8 +18,9 @@ shared machine):
   appended) -- and each one's share;
 - ``end_to_end``: :func:`quadsim.dataset.run_sweep` into an empty folder
   with 1, 2, the CPU count and twice the CPU count of local worker
-  processes (clips/s, character-frames/s), with ``overhead_ms``: the time
-  per clip on one worker beyond the stages (the sweep's own machinery), and
+  processes (clips/s, character-frames/s), with ``overhead_ms_per_clip``:
+  the CPU time per clip on one worker beyond the stages' (the sweep's own
+  machinery: tasks, manifest, progress, compaction), and
   ``startup_s``: a sweep of two clips on two workers (forking the workers,
   compacting the manifest);
 - ``files_only``: the same clips generated and written by 2 worker
@@ -115,23 +116,34 @@ def stages(clips, repeats: int) -> dict:
     from quadsim.dataset.manifest import publish
 
     def once(folder: Path) -> dict:
-        t = dict.fromkeys(("generate", "measure", "encode", "publish"), 0.0)
+        keys = ("generate", "measure", "encode", "publish")
+        t, cpu = dict.fromkeys(keys, 0.0), dict.fromkeys(keys, 0.0)
+
+        def clock():
+            return time.perf_counter(), time.process_time()
+
+        def add(key, a, b):
+            t[key] += b[0] - a[0]
+            cpu[key] += b[1] - a[1]
+
         for group in _groups(clips):
-            t0 = time.perf_counter()
+            c0 = clock()
             motions = generate(group)
-            t["generate"] += time.perf_counter() - t0
+            add("generate", c0, clock())
             for c, m in zip(group, motions):
-                t0 = time.perf_counter()
+                c0 = clock()
                 figures = measure(m)
-                t1 = time.perf_counter()
+                c1 = clock()
                 data = npz_bytes(m)
-                t2 = time.perf_counter()
+                c2 = clock()
                 publish(folder, {"id": c.id, "path": c.path, "metrics": figures}, data)
-                t3 = time.perf_counter()
-                t["measure"] += t1 - t0
-                t["encode"] += t2 - t1
-                t["publish"] += t3 - t2
-        return {k: 1e3 * v / len(clips) for k, v in t.items()}
+                c3 = clock()
+                add("measure", c0, c1)
+                add("encode", c1, c2)
+                add("publish", c2, c3)
+        n = len(clips)
+        return {"wall": {k: 1e3 * v / n for k, v in t.items()},
+                "cpu": {k: 1e3 * v / n for k, v in cpu.items()}}
 
     runs = []
     for r in range(repeats + 1):
@@ -140,10 +152,12 @@ def stages(clips, repeats: int) -> dict:
             res = once(Path(tmp))
         if r:  # the first is a warm-up
             runs.append(res)
-    ms = {k: _median([x[k] for x in runs]) for k in runs[0]}
-    total = sum(ms.values())
-    return {"ms_per_clip": ms, "total_ms_per_clip": total,
-            "share": {k: v / total for k, v in ms.items()}, "repeats": runs}
+    ms = {k: _median([x["wall"][k] for x in runs]) for k in runs[0]["wall"]}
+    cpu = {k: _median([x["cpu"][k] for x in runs]) for k in runs[0]["cpu"]}
+    total, total_cpu = sum(ms.values()), sum(cpu.values())
+    return {"ms_per_clip": ms, "total_ms_per_clip": total, "cpu_ms_per_clip": cpu,
+            "total_cpu_ms_per_clip": total_cpu,
+            "share": {k: v / total_cpu for k, v in cpu.items()}, "repeats": runs}
 
 
 def _cpu() -> float:
@@ -258,8 +272,9 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
         f"({mem['frames_per_cpu_s']:,.0f} per CPU second)")
     st = stages(clips, repeats)
     parts = ", ".join(f"{k} {v:.2f} ms ({100 * st['share'][k]:.0f} %)"
-                      for k, v in st["ms_per_clip"].items())
-    log(f"  per clip, one process: {parts}; {st['total_ms_per_clip']:.2f} ms")
+                      for k, v in st["cpu_ms_per_clip"].items())
+    log(f"  per clip, one process, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
+        f"({st['total_ms_per_clip']:.2f} ms wall-clock)")
     e2e = end_to_end(g, workers, repeats)
     for n, r in e2e.items():
         log(f"  end to end, {n} worker{'s' if n != '1' else ''}: {r['clips_per_s']:.1f} clips/s, "
@@ -269,11 +284,11 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
     log(f"  files only (nothing measured), 2 workers: {files['clips_per_s']:.1f} clips/s, "
         f"{files['frames_per_s']:,.0f} character-frames/s "
         f"({files['frames_per_s'] / mem['frames_per_s']:.2f} of in memory)")
-    overhead = e2e["1"]["ms_per_clip"] - st["total_ms_per_clip"]
+    overhead = e2e["1"]["cpu_ms_per_clip"] - st["total_cpu_ms_per_clip"]
     start = startup(repeats)
     ratio = e2e["2"]["frames_per_s"] / mem["frames_per_s"]
-    log(f"  sweep overhead on one worker: {overhead:.2f} ms a clip; a 2-clip sweep on 2 "
-        f"workers: {start:.2f} s")
+    log(f"  sweep overhead on one worker: {overhead:.2f} ms of CPU a clip; a 2-clip sweep "
+        f"on 2 workers: {start:.2f} s")
     log(f"  2 workers end to end / BatchController in memory: {ratio:.2f} "
         f"(target >= {TARGET_RATIO}: {'met' if ratio >= TARGET_RATIO else 'NOT met'})")
     return {"machine": machine_info(), "load_average": list(os.getloadavg()),
