@@ -7,6 +7,8 @@ each. Every row follows exactly the path of a lone controller -- the same
 compiled kernels, row by row -- so a clip is bit for bit the motion
 :func:`quadsim.simulate` makes of the same character, command and seed, and
 it does not matter which other clips share its batch (tests hold both).
+Fewer than :data:`BATCH_MIN_ROWS` clips are simulated one by one instead,
+which is faster for so few.
 
 A clip's file is made in memory (:func:`clip_bytes`): an ``.npz`` holds the
 arrays of :func:`quadsim.io.npz.npz_arrays`, stored uncompressed in a zip
@@ -28,7 +30,8 @@ import numpy as np
 
 from quadsim.dataset.grid import ClipSpec
 
-__all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure", "npz_bytes"]
+__all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure",
+           "npz_bytes"]
 
 #: The date every entry of a sweep's ``.npz`` carries (zip's earliest).
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)

@@ -2,10 +2,12 @@
 
 ``DIR/manifest.jsonl`` holds one JSON object a line, one line per finished
 clip, appended as clips finish. A clip counts as finished when its line is
-there and its file exists: the file is written (atomically) before its line,
-so a job stopped between the two makes the clip again on the next run (the
-same bytes) rather than trusting a line without a file. A line cut short by
-a stop is ignored when read and removed before the next append.
+there and its file exists with the size the line records. The file is
+written (atomically) and then its line (:func:`publish`), with SIGTERM and
+SIGINT held back meanwhile, so a stopped job leaves both or neither; after
+a harder stop (SIGKILL, a crash of the machine) a clip whose line or file is
+missing is made again on the next run, the same bytes. A line cut short is
+ignored when read and removed before the next append.
 
 When a run ends, :func:`compact` rewrites the manifest in the grid's order,
 each clip once, so the manifest too is the same whatever the workers were.
@@ -33,8 +35,9 @@ MANIFEST = "manifest.jsonl"
 
 
 def read_manifest(path) -> dict[str, dict]:
-    """The entries of a manifest by clip id (the first line of each id; lines that are
-    not a JSON object with an ``id``, such as one cut short, are skipped)."""
+    """The entries of a manifest by clip id, in the order of their first lines (the last
+    line of an id counts; lines that are not a JSON object with an ``id``, such as one
+    cut short, are skipped)."""
     out: dict[str, dict] = {}
     try:
         text = Path(path).read_text(encoding="utf-8", errors="replace")
@@ -46,7 +49,7 @@ def read_manifest(path) -> dict[str, dict]:
         except ValueError:
             continue
         if isinstance(entry, dict) and isinstance(entry.get("id"), str):
-            out.setdefault(entry["id"], entry)
+            out[entry["id"]] = entry
     return out
 
 
