@@ -38,4 +38,4 @@ from quadsim.skeleton import (  # noqa: E402
 __all__ = ["Character", "Command", "Controller", "Frame", "InputError", "Motion",
            "QuadsimClampWarning", "Script", "Skeleton", "list_characters", "load_character",
            "make_controller", "resolve", "run", "save", "simulate"]
-__version__ = "0.1.0"
+from quadsim._version import __version__  # noqa: E402

@@ -16,7 +16,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "quadsim"
 
 #: Layers from the bottom: a module may import its own layer and those below.
 LAYERS = [
-    ("quadsim.frames", "quadsim.errors", "quadsim._optional", "quadsim._kernel_cache"),
+    ("quadsim.frames", "quadsim.errors", "quadsim._optional", "quadsim._kernel_cache",
+     "quadsim._version"),
     ("quadsim.kinematics.rotations", "quadsim.kinematics.chains", "quadsim.kinematics"),
     ("quadsim.skeleton", "quadsim.commands"),
     ("quadsim.controller", "quadsim.kinematics.ik", "quadsim.mesh"),
@@ -24,10 +25,10 @@ LAYERS = [
     ("quadsim.analysis", "quadsim.io", "quadsim.robots"),
     ("quadsim.config",),
     ("quadsim.api",),
-    ("quadsim.clipset",),
+    ("quadsim.clipset", "quadsim.dataset"),
     ("quadsim.viz",),
     ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_clips", "quadsim.cli_retarget",
-     "quadsim.__main__", "quadsim"),
+     "quadsim.cli_sweep", "quadsim.__main__", "quadsim"),
 ]
 
 #: Pairs of the same layer that must not import each other (either way).

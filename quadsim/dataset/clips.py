@@ -1,0 +1,226 @@
+"""Making a sweep's clips: generated in batches, measured, turned into file bytes.
+
+The clips of one character (with the same length and frame rate) are
+stepped together by one :class:`~quadsim.locomotion.batch.BatchController`,
+posed at every step, and cut into one :class:`~quadsim.skeleton.motion.Motion`
+each. Every row follows exactly the path of a lone controller -- the same
+compiled kernels, row by row -- so a clip is bit for bit the motion
+:func:`quadsim.simulate` makes of the same character, command and seed, and
+it does not matter which other clips share its batch (tests hold both).
+Fewer than :data:`BATCH_MIN_ROWS` clips are simulated one by one instead,
+which is faster for so few.
+
+A clip's file is made in memory (:func:`clip_bytes`): an ``.npz`` holds the
+arrays of :func:`quadsim.io.npz.npz_arrays`, stored uncompressed in a zip
+whose every entry has the same fixed date, so the bytes depend on the motion
+alone; ``.bvh`` and ``.glb`` come from :func:`quadsim.save`.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import tempfile
+import warnings
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+
+from quadsim.dataset.grid import ClipSpec
+
+__all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure",
+           "npz_bytes"]
+
+#: The date every entry of a sweep's ``.npz`` carries (zip's earliest).
+ZIP_DATE = (1980, 1, 1, 0, 0, 0)
+#: Fewest clips stepped together by a BatchController: below, each clip is
+#: simulated alone, which is faster there (the same bytes either way).
+BATCH_MIN_ROWS = 5
+
+_CHARACTERS: dict[tuple[str, str], object] = {}
+_ANATOMY: dict[tuple, tuple] = {}  # each skeleton's anatomy, found once
+
+
+def _load(spec: ClipSpec):
+    """The spec's character, loaded once per process."""
+    from quadsim.errors import InputError
+    from quadsim.skeleton.character import load_character
+
+    key = (spec.source, spec.digest)
+    ch = _CHARACTERS.get(key)
+    if ch is None:
+        ch = load_character(spec.source)
+        if spec.digest:
+            import hashlib
+
+            if hashlib.sha256(Path(spec.source).read_bytes()).hexdigest() != spec.digest:
+                raise InputError(f"{spec.source}: the character file changed since the grid "
+                                 "was read; run the sweep again")
+        _CHARACTERS[key] = ch
+    return ch
+
+
+def generate(specs: Sequence[ClipSpec]) -> list:
+    """The motions of clips of one character, length and frame rate, stepped together.
+
+    Parameters
+    ----------
+    specs : sequence of ClipSpec, length N
+        All with the same ``source``, ``seconds`` and ``fps``.
+
+    Returns
+    -------
+    list of Motion
+        One per spec, ``frames`` long, as :func:`quadsim.simulate` gives it
+        (planned contacts, gait labels, extras); fewer than
+        :data:`BATCH_MIN_ROWS` clips are simulated one by one.
+    """
+    from quadsim.config import constant_command
+    from quadsim.kinematics.rotations import quaternions_from_matrices
+    from quadsim.locomotion.batch import BatchController
+    from quadsim.skeleton.motion import Motion
+
+    first = specs[0]
+    if any((s.source, s.seconds, s.fps) != (first.source, first.seconds, first.fps)
+           for s in specs):
+        raise ValueError("generate() takes clips of one character, length and frame rate")
+    ch = _load(first)
+    n, T, dt = len(specs), first.frames, 1.0 / first.fps
+    cmds = [constant_command(ch, speed=s.speed, gait=s.gait, turn_rate_deg_s=s.turn_rate_deg_s)
+            for s in specs]
+    if n < BATCH_MIN_ROWS:
+        from quadsim.api import simulate
+
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return [simulate(ch, c, seconds=s.seconds, fps=s.fps, seed=s.seed)
+                    for s, c in zip(specs, cmds)]
+    b = BatchController([ch] * n, dt=dt, seeds=[s.seed for s in specs],
+                        gaits=[c.gait for c in cmds])
+    speed = np.array([c.speed for c in cmds], dtype=float)
+    turn = np.array([c.turn_rate or 0.0 for c in cmds], dtype=float)
+    gait = b.gait_ids([c.gait for c in cmds])
+    J = ch.skeleton.n_joints
+    local = np.empty((n, T, J, 3, 3))
+    root, contacts = np.empty((n, T, 3)), np.empty((n, T, 4), dtype=bool)
+    heading, spine, v, duty = (np.empty((n, T)) for _ in range(4))
+    err, amp, theta = np.empty((n, T, 4)), np.empty((n, T, 5)), np.empty((n, T, 4))
+    labels = []
+    st = b.state
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # clamps: the measured figures show them
+        for k in range(T):
+            # frame 0 is the starting state (a step of 0 s), as quadsim.simulate
+            fr = b.step(speed, turn, None, gait, dt if k else 0.0, pose=True)
+            local[:, k], err[:, k] = fr["local_rotations"][0], fr["ik_error"][0]
+            root[:, k], contacts[:, k] = fr["root"], fr["contacts"]
+            heading[:, k], spine[:, k], v[:, k] = fr["heading"], fr["spine"], fr["speed"]
+            duty[:, k], amp[:, k], theta[:, k] = fr["duty"], fr["amplitude"], st.cpg.theta
+            labels.append(b.labels)
+    out = []
+    for i in range(n):
+        out.append(Motion(
+            ch.skeleton, first.fps, root[i], quaternions_from_matrices(local[i]),
+            contacts=contacts[i], gaits=np.array([row[i] for row in labels], dtype=object),
+            foot_joints=ch.foot_joints,
+            extras={"phase": np.mod(theta[i] / (2.0 * math.pi), 1.0), "spine": spine[i],
+                    "duty": duty[i], "speed": v[i], "ik_error": err[i],
+                    "heading": heading[i], "cpg_amplitude": amp[i]}))
+    return out
+
+
+def measure(motion) -> dict:
+    """The figures ``quadsim metrics --json`` reports of ``motion``: footfalls, duty
+    factors, phases, stride, speed, slide, penetration, smoothness and, under
+    ``appearance``, what a viewer sees (None when it cannot be measured)."""
+    from quadsim.analysis.appearance import appearance_report
+    from quadsim.analysis.metrics import motion_report
+    from quadsim.skeleton.anatomy import find_anatomy
+
+    report = motion_report(motion)
+    key = (id(motion.skeleton), tuple(motion.foot_joints))
+    try:
+        hit = _ANATOMY.get(key)
+        if hit is None or hit[0] is not motion.skeleton:
+            hit = _ANATOMY[key] = (motion.skeleton,
+                                   find_anatomy(motion.skeleton, motion.foot_joints))
+        report["appearance"] = appearance_report(motion, anatomy=hit[1])
+    except ValueError:  # no quadruped structure to measure the trunk and head on
+        report["appearance"] = None
+    return report
+
+
+def npz_bytes(motion) -> bytes:
+    """The ``.npz`` file of ``motion`` (the arrays of :func:`quadsim.io.npz.npz_arrays`,
+    stored, every entry dated :data:`ZIP_DATE`): the same bytes for the same motion."""
+    from quadsim.io.npz import npz_arrays
+
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
+        for key, value in npz_arrays(motion).items():
+            info = zipfile.ZipInfo(f"{key}.npy", date_time=ZIP_DATE)
+            info.create_system = 3
+            info.external_attr = 0o644 << 16
+            with z.open(info, "w", force_zip64=True) as f:
+                np.lib.format.write_array(f, np.asanyarray(value), allow_pickle=False)
+    return buf.getvalue()
+
+
+def clip_bytes(motion, fmt: str, character=None) -> bytes:
+    """The file of ``motion`` in format ``fmt`` (``"npz"``, ``"bvh"``, ``"glb"``)."""
+    if fmt == "npz":
+        return npz_bytes(motion)
+    from quadsim.api import save
+
+    with tempfile.TemporaryDirectory(prefix="quadsim-sweep-") as tmp:
+        path = Path(tmp) / f"clip.{fmt}"
+        save(motion, path, character=character)
+        return path.read_bytes()
+
+
+def _groups(specs: Sequence[ClipSpec]) -> list[list[ClipSpec]]:
+    groups: dict[tuple, list[ClipSpec]] = {}
+    for s in specs:
+        groups.setdefault((s.source, s.digest, s.seconds, s.fps), []).append(s)
+    return list(groups.values())
+
+
+def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
+    """Generate, measure and write (or return) clips: one task of a sweep.
+
+    Parameters
+    ----------
+    specs : sequence of ClipSpec
+        Any clips; those of one character, length and frame rate are generated
+        together.
+    out : str, optional
+        The sweep's folder: each clip is written atomically to
+        ``out/<spec.path>``, then its line appended to the manifest
+        (:func:`~quadsim.dataset.manifest.publish`). Without it the bytes are
+        returned instead (a worker on another machine).
+
+    Returns
+    -------
+    list of dict
+        One manifest entry per spec, in the order given: ``id``, the
+        parameters, ``path``, ``frames``, ``bytes`` (the file's size),
+        ``metrics``; without ``out`` also ``data`` (the file's bytes).
+    """
+    from quadsim._version import __version__
+    from quadsim.dataset.manifest import publish
+
+    done = {}
+    for group in _groups(specs):
+        for spec, motion in zip(group, generate(group)):
+            data = clip_bytes(motion, spec.format, _load(spec))
+            entry = {"id": spec.id, **spec.parameters(), "path": spec.path,
+                     "frames": len(motion), "bytes": len(data), "quadsim": __version__,
+                     "metrics": measure(motion)}
+            if out is None:
+                done[spec.id] = dict(entry, data=data)
+            else:
+                publish(out, entry, data)
+                done[spec.id] = entry
+    return [done[s.id] for s in specs]
