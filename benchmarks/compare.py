@@ -24,6 +24,7 @@ import argparse
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -116,7 +117,13 @@ def compare(rev: str, rounds: int = 5, characters=("leopard", "horse"), frames: 
     return table
 
 
+def _stop(signum, frame):
+    """SIGTERM as an interrupt: the temporary worktree and caches are removed on the way out."""
+    raise KeyboardInterrupt
+
+
 def main(argv=None) -> int:
+    signal.signal(signal.SIGTERM, _stop)
     ap = argparse.ArgumentParser(prog="python -m benchmarks.compare", description=__doc__.split(
         "\n\n")[0])
     ap.add_argument("rev", help="the git revision to compare against (e.g. a commit or tag)")
@@ -133,6 +140,9 @@ def main(argv=None) -> int:
     except (ValueError, RuntimeError) as e:
         print(f"benchmarks.compare: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        print("benchmarks.compare: stopped; the temporary worktree was removed", file=sys.stderr)
+        return 130
     w = max(len(f) for f in table)
     print(f"{'figure':<{w}}  {'this tree':>12}  {args.rev[:12]:>12}  speed ratio (range)")
     for fig, r in table.items():

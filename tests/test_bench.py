@@ -47,3 +47,28 @@ def test_compare_refuses_a_revision_that_names_no_commit(capsys):
     assert main(["no-such-revision-here", "--rounds", "1"]) == 2
     err = capsys.readouterr().err
     assert "'no-such-revision-here' is not a commit" in err and "Traceback" not in err
+
+
+def test_compare_stopped_by_sigterm_removes_its_temporary_worktree(tmp_path):
+    """`kill` during a side-by-side run leaves no temporary folder and no git worktree."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    env = dict(os.environ, TMPDIR=str(tmp_path), PYTHONPATH=str(root))
+    proc = subprocess.Popen([sys.executable, "-m", "benchmarks.compare", "HEAD", "--rounds", "1"],
+                            cwd=root, env=env, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while not list(tmp_path.glob("quadsim-compare-*/tree/quadsim")):
+        assert proc.poll() is None and time.monotonic() < deadline, proc.stderr.read()
+        time.sleep(0.1)
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(timeout=60) == 130
+    assert not list(tmp_path.glob("quadsim-compare-*"))
+    trees = subprocess.run(["git", "-C", str(root), "worktree", "list"], capture_output=True,
+                           text=True, check=True).stdout
+    assert str(tmp_path) not in trees
