@@ -2,7 +2,7 @@
 
 ::
 
-    python tools/appearance_table.py [--seconds 10] [--json FILE]
+    python tools/appearance_table.py [--seconds 10] [--json FILE] [--markdown]
 
 Each character runs each of its gaits at the gait's preferred speed (the
 data-driven horse at four speeds); the first 3 s are left out. Columns (see
@@ -11,7 +11,8 @@ Alexander's law, scaled cadence, trunk pitch, heave and spine flexion ranges,
 head pitch range, the deepest toe tip and its slide, foot speed over body
 speed at touchdown (ground and descent) and after lift-off, the flight phases' vertical
 acceleration (median, g), peak joint speed and the worst hinge's locked share
-of swing frames.
+of swing frames. ``--markdown`` also prints the README's table (the walk, trot
+and rotary gallop of each character) from the same figures.
 """
 
 from __future__ import annotations
@@ -46,10 +47,41 @@ def _cases(seconds: float):
                                                               seconds=seconds)
 
 
+#: The README table's rows: each character's walk, trot and rotary gallop.
+README_GAITS = ("walk", "trot", "rotary_gallop")
+
+
+def _num(x, fmt: str) -> str:
+    return "-" if x is None else format(x, fmt)
+
+
+def markdown(rows: dict) -> str:
+    """The README's table ("How the motion measures") of the measured ``rows``."""
+    out = ["| character, gait | stride / h | pitch | spine | flight | touchdown | lift-off "
+           "| joint speed | locked |", "|---|---|---|---|---|---|---|---|---|"]
+    for name, r in rows.items():
+        cid, _, gait = name.partition(" ")
+        if gait not in README_GAITS:
+            continue
+        acc = r["flight_accel_g"]
+        flight = "-" if not acc else (f"{min(acc):.2f}" if max(acc) - min(acc) < 0.005
+                                      else f"{min(acc):.2f} to {max(acc):.2f}")
+        out.append(
+            f"| {cid} {gait.replace('_', ' ')} | {_num(r['stride_over_h'], '.2f')} "
+            f"({_num(r['alexander_over_h'], '.2f')}) | {_num(r['trunk_pitch_range_deg'], '.1f')} "
+            f"| {_num(r['spine_flexion_range_deg'], '.1f')} | {flight} "
+            f"| {_num(r['touchdown_speed_ratio_p90'], '.2f')} / "
+            f"{_num(r['touchdown_descent_ratio_p90'], '.2f')} "
+            f"| {_num(r['liftoff_speed_ratio_p90'], '.2f')} "
+            f"| {_num(r['peak_joint_speed_deg_s'], ',.0f')} | {_num(r['locked_pct'], '.1f')} |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seconds", type=float, default=10.0)
     p.add_argument("--json", metavar="FILE")
+    p.add_argument("--markdown", action="store_true", help="also print the README's table")
     a = p.parse_args(argv)
     rows = {}
     print(f"{'case':30s}" + "".join(f"{h:>7s}" for h, _, _ in COLUMNS))
@@ -67,6 +99,9 @@ def main(argv=None) -> int:
     if a.json:
         with open(a.json, "w") as fh:
             json.dump(rows, fh, indent=1)
+    if a.markdown:
+        print()
+        print(markdown(rows))
     return 0
 
 
