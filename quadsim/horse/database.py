@@ -14,7 +14,7 @@ take by the measured foot contacts and labels their touchdowns.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,10 +27,12 @@ from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 
 LEGS = ("LF", "RF", "LH", "RH")
-#: Gaits a clip may have; ``gallop`` is the horse's transverse gallop.
-CLIP_GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop", "leap")
+#: Gaits a clip may have (the shared gait table's, slowest first, and the leap);
+#: ``gallop`` is the transverse gallop.
+CLIP_GAITS = ("walk", "amble", "trot", "rack", "pace", "canter", "gallop", "rotary_gallop",
+              "leap")
 #: Gaits with a leading fore leg.
-ASYMMETRIC = ("canter", "gallop", "leap")
+ASYMMETRIC = ("canter", "gallop", "rotary_gallop", "leap")
 #: Other names a clip's or a command's gait may be given by.
 GAIT_ALIASES = {"transverse_gallop": "gallop"}
 #: Largest joint rotation (deg) between a cycle's first pose and the pose one
@@ -79,13 +81,43 @@ class Clip:
         return self.frames / self.motion.fps
 
 
+@dataclass(frozen=True)
+class SpeedLaw:
+    """A gait's contact-time law ``Tc = a v^b`` (Tc in s, v in m/s).
+
+    Attributes
+    ----------
+    a : float
+        Contact time (s) at 1 m/s.
+    b : float
+        Exponent (negative: faster, shorter contacts).
+    anchor : {"law", "clip"}
+        How a clip is expanded to another speed (:func:`quadsim.horse.speed.expand`):
+        to ``a v^b`` itself, or by ``(v / v0)^b`` relative to the clip.
+    """
+
+    a: float
+    b: float
+    anchor: str = "law"
+
+    def contact_time(self, speed):
+        """``a v^b`` (s) at ``speed`` (m/s), any shape."""
+        return self.a * np.asarray(speed, dtype=float) ** self.b
+
+
 @dataclass(frozen=True, eq=False)
 class ClipDatabase:
-    """Clips by name, for one character."""
+    """Clips by name, for one character.
+
+    ``laws`` maps a gait to its :class:`SpeedLaw` (a clip folder's
+    ``[laws.<gait>]`` tables); a gait without one uses the horse's Table 1
+    (:data:`quadsim.horse.speed.HOYT`) where it has a row.
+    """
 
     character: Character
     clips: dict
     folder: Path | None = None
+    laws: dict = field(default_factory=dict)
 
     def by_gait(self, gait: str) -> list[Clip]:
         """Clips of a gait, slowest first."""
@@ -358,6 +390,7 @@ __all__ = [
     "Clip",
     "ClipDatabase",
     "Cycle",
+    "SpeedLaw",
     "contacts_from_stance",
     "cut_cycles",
     "cycle_stance",
