@@ -27,6 +27,7 @@ LAYERS = [
     ("quadsim.clipset",),
     ("quadsim.viz",),
     ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_clips", "quadsim.cli_retarget",
+     "quadsim.cli_clips_from",
      "quadsim.__main__", "quadsim"),
 ]
 

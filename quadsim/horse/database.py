@@ -199,12 +199,16 @@ class Cycle:
 def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                loop_tolerance_deg: float = LOOP_TOLERANCE_DEG,
                steady_tolerance: float = 0.03, character: Character | None = None,
-               where: str = "take", root_tolerance: float = 0.02) -> list[Cycle]:
+               where: str = "take", root_tolerance: float = 0.02,
+               contact_tolerance: float | None = None) -> list[Cycle]:
     """Cut steady, looped stride cycles out of a long take by its foot contacts.
 
     Contacts are measured from the foot positions
     (:func:`quadsim.skeleton.contacts.foot_contacts`); a cycle runs from one
-    touchdown of the ``reference`` foot (default LH) to its next. Cycles whose
+    touchdown of the ``reference`` foot (default LH) to its next (``contact_tolerance``,
+    m: the contacts' widest on-ground band, see
+    :func:`~quadsim.skeleton.contacts.foot_contacts`; a foot landing up to half a
+    frame before the reference foot counts as landing with it). Cycles whose
     period differs from the take's median period by more than
     ``steady_tolerance`` (fraction) are not steady and skipped. The chosen
     cycle is resampled (slerp) to a whole number of frames at the take's frame
@@ -232,8 +236,8 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         raise InputError(f"{where}: the motion does not name its foot joints")
     fps = motion.fps
     feet = motion.foot_positions()
-    c = foot_contacts(feet, fps)
-    iv = stance_intervals(c, fps, feet)
+    c = foot_contacts(feet, fps, tolerance=contact_tolerance)
+    iv = stance_intervals(c, fps, feet, tolerance=contact_tolerance)
     on = [s[np.isfinite(s[:, 0]), 0] for s in iv]
     ref = on[reference]
     if len(ref) < 2:
@@ -284,7 +288,7 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         phase = np.zeros(4)
         for i in range(4):
             ti = on[i]
-            inside = ti[(ti >= t0 - 1e-9) & (ti < t1 - 1e-9)]
+            inside = ti[(ti >= t0 - 0.5 / fps) & (ti < t1 - 0.5 / fps)]
             if len(inside) == 0:
                 raise InputError(f"{where}: foot {LEGS[i]} does not land in the cycle at "
                                  f"{t0:.3f}-{t1:.3f} s")

@@ -43,17 +43,21 @@ from quadsim.horse.database import ASYMMETRIC, GAIT_ALIASES, SpeedLaw, cut_cycle
 from quadsim.horse.speed import DEFAULT_EXPONENT
 from quadsim.kinematics.rotations import matrices_about_axis, quaternions_from_matrices
 from quadsim.skeleton.character import Character
-from quadsim.skeleton.contacts import foot_contacts, stance_intervals
+from quadsim.skeleton.contacts import default_contact_thresholds, foot_contacts, stance_intervals
 from quadsim.skeleton.motion import Motion
 
 __all__ = ["LOOP_TOLERANCE_DEG", "MAX_PHASE_ERROR", "MIN_STRIDES", "CutDatabase", "Stride",
            "TakeClip", "cut_database", "fit_law", "label_gait", "measure_strides", "read_take",
-           "steady_runs", "write_database"]
+           "smooth_take", "steady_runs", "write_database"]
 
 #: Fewest strides of one gait in a row that make a steady run.
 MIN_STRIDES = 3
 #: Strides of a run differ from its median period and speed by at most this fraction.
-STEADY_TOLERANCE = 0.08
+STEADY_TOLERANCE = 0.10
+#: On-ground band of a contact when strides are timed, as a fraction of the contact
+#: height threshold (:func:`~quadsim.skeleton.contacts.default_contact_thresholds`):
+#: wider than the default so that a foot's capture jitter does not move its touchdown.
+CONTACT_BAND = 0.5
 #: Largest mean touchdown-phase error (cycles) of a stride against its gait's table.
 MAX_PHASE_ERROR = 0.08
 #: Weight of the duty factor's distance from the table's range against the phase error.
@@ -200,6 +204,32 @@ def read_take(path, character: Character) -> Motion:
     return Motion(sk, raw.fps, root, rot, foot_joints=character.foot_joints)
 
 
+def smooth_take(motion: Motion, sigma: float = 1.0) -> Motion:
+    """The take low-passed in time: a Gaussian of ``sigma`` frames (0: unchanged) over
+    the root's path and each joint's rotation (quaternions aligned to the previous
+    frame's hemisphere, averaged and normalised). Capture noise of a few tenths of a
+    degree per joint moves a foot by millimetres per frame, which breaks its contacts
+    into pieces; a frame of smoothing keeps them whole."""
+    if not sigma > 0:
+        return motion
+    r = max(int(math.ceil(3 * sigma)), 1)
+    w = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    w /= w.sum()
+    q = np.array(motion.rotations)
+    flip = np.sum(q[1:] * q[:-1], axis=-1) < 0
+    sign = np.concatenate([np.ones((1, q.shape[1])), np.where(flip, -1.0, 1.0)])
+    q *= np.cumprod(sign, axis=0)[..., None]
+
+    def conv(x):
+        pad = np.concatenate([np.repeat(x[:1], r, 0), x, np.repeat(x[-1:], r, 0)])
+        return sum(wk * pad[k:k + len(x)] for k, wk in enumerate(w))
+
+    q = conv(q)
+    q /= np.linalg.norm(q, axis=-1, keepdims=True)
+    return Motion(motion.skeleton, motion.fps, conv(np.asarray(motion.root_positions)), q,
+                  foot_joints=motion.foot_joints)
+
+
 def _own_toe(name: str, names) -> bool:
     return name.endswith("_toe") and name[:-4] in names
 
@@ -254,7 +284,8 @@ def measure_strides(motion: Motion, character: Character, take: str = "take") ->
     """
     fps = motion.fps
     feet = motion.foot_positions()
-    iv = stance_intervals(foot_contacts(feet, fps), fps, feet)
+    tol = CONTACT_BAND * default_contact_thresholds(feet)[0]
+    iv = stance_intervals(foot_contacts(feet, fps, tolerance=tol), fps, feet, tolerance=tol)
     iv = [s[np.isfinite(s).all(axis=1)] for s in iv]
     ref = iv[LEGS.index("LH")][:, 0]
     t = np.arange(len(motion)) / fps
@@ -265,7 +296,8 @@ def measure_strides(motion: Motion, character: Character, take: str = "take") ->
         phase, duty = np.zeros(4), np.zeros(4)
         ok = True
         for i, s in enumerate(iv):
-            k = np.nonzero((s[:, 0] >= t0 - 1e-9) & (s[:, 0] < t1 - 1e-9))[0]
+            # a foot landing with the left hind (a trot's diagonal) may land a hair before it
+            k = np.nonzero((s[:, 0] >= t0 - 0.5 / fps) & (s[:, 0] < t1 - 0.5 / fps))[0]
             if len(k) == 0:
                 ok = False
                 break
@@ -330,8 +362,10 @@ def _cut_run(motion: Motion, run: list[Stride], character: Character, where: str
     a = max(int(math.floor((run[0].t0 - 0.5 * run[0].period) * fps)), 0)
     b = min(int(math.ceil((run[-1].t1 + 0.5 * run[-1].period) * fps)) + 1, len(motion))
     part = _facing_z(motion[a:b])
+    tol = CONTACT_BAND * default_contact_thresholds(part.foot_positions())[0]
     cyc = cut_cycles(part, character=character, where=where, steady_tolerance=STEADY_TOLERANCE,
-                     loop_tolerance_deg=LOOP_TOLERANCE_DEG, root_tolerance=ROOT_TOLERANCE)[0]
+                     loop_tolerance_deg=LOOP_TOLERANCE_DEG, root_tolerance=ROOT_TOLERANCE,
+                     contact_tolerance=tol)[0]
     return cyc, a / fps
 
 
@@ -361,8 +395,9 @@ def cut_database(takes: list[tuple[str, Motion]], character: Character) -> CutDa
     Raises
     ------
     InputError
-        When a take is too short for any stride, or no take has a steady run
-        of a gait (each take named, with what was found and the fix).
+        When a take is too short for any stride, has no steady run of a gait,
+        or no run could be cut into a looped cycle (the take named, with what
+        was found and the fix).
     """
     clips, strides, notes, points = [], [], [], {}
     for name, motion in takes:
@@ -375,10 +410,13 @@ def cut_database(takes: list[tuple[str, Motion]], character: Character) -> CutDa
                 "hind foot must land at least twice with every foot landing in between); "
                 "give a longer take of steady locomotion")
         if not runs:
-            found = sorted({s.gait or "unlabelled" for s in ss})
-            notes.append(f"{name}: no steady run of {MIN_STRIDES} strides of one gait "
-                         f"({len(ss)} strides: {', '.join(found)})")
-            continue
+            found = ", ".join(f"{g} x{sum((s.gait or 'unlabelled') == g for s in ss)}"
+                              for g in sorted({s.gait or "unlabelled" for s in ss}))
+            raise InputError(
+                f"{name}: no steady gait: {len(ss)} strides ({found}) but no "
+                f"{MIN_STRIDES} in a row of one gait at one speed (periods and speeds within "
+                f"{STEADY_TOLERANCE:.0%}, footfalls within {MAX_PHASE_ERROR} cycles of a gait "
+                "of the character's table); leave the take out or keep longer steady stretches")
         for run in runs:
             g, lead = run[0].gait, run[0].lead
             where = f"{name}: {g} at {run[0].t0:.2f}-{run[-1].t1:.2f} s"
