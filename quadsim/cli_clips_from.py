@@ -40,9 +40,12 @@ def _report(cut, out: Path) -> list[str]:
 
 def clips_from_command(args) -> int:
     """Read the takes, cut the database, write it, print what was found."""
-    from quadsim.io.takes import cut_database, read_take, write_database
-    from quadsim.skeleton.character import load_character
+    from quadsim.io.takes import cut_database, read_take, smooth_take, write_database
+    from quadsim.skeleton.character import characters_dir, load_character
 
+    if not 0.0 <= args.smooth <= 10.0:
+        raise InputError(f"`--smooth` {args.smooth!r}: give a Gaussian width in frames, "
+                         "0 (none) to 10")
     character = load_character(args.character)
     takes = []
     for t in args.takes:
@@ -51,16 +54,20 @@ def clips_from_command(args) -> int:
             raise InputError(f"{p}: `quadsim clips-from` reads BVH takes (.bvh)")
         if not p.is_file():
             raise InputError(f"{p}: no such take")
-        takes.append((str(p), read_take(p, character)))
+        takes.append((str(p), smooth_take(read_take(p, character), args.smooth)))
     cut = cut_database(takes, character)
     out = write_database(cut, Path(args.out), [str(Path(t).resolve()) for t in args.takes])
     print("\n".join(_report(cut, out)))
-    if character.path is not None:
-        ref = os.path.relpath(out.resolve(), Path(character.path).resolve().parent)
+    path = None if character.path is None else Path(character.path).resolve()
+    if path is not None and path.parent != characters_dir().resolve():
+        ref = os.path.relpath(out.resolve(), path.parent)
         print(f"wrote {out}; to play it, add `clips = \"{ref}\"` to the [character] table of "
               f"{character.path} and run `quadsim run {character.path} --mode data --speed V`")
     else:
-        print(f"wrote {out}")
+        print(f"wrote {out}; to play it, copy the character file {path or character.id} "
+              "beside it under a name and `id` of your own, add `clips = \"<this folder, "
+              "relative to the copy>\"` to its [character] table and run `quadsim run "
+              "COPY.toml --mode data --speed V`")
     return 0
 
 
@@ -79,4 +86,7 @@ def register(sub) -> None:
                     "built-in character's identifier)")
     cf.add_argument("--out", required=True, metavar="DIR",
                     help="folder to write the clip database into (replaced when it holds one)")
+    cf.add_argument("--smooth", type=float, default=0.0, metavar="FRAMES",
+                    help="low-pass the takes with a Gaussian of this many frames first "
+                    "(noisy capture; default 0: as recorded)")
     cf.set_defaults(func=clips_from_command)
