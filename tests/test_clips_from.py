@@ -220,6 +220,38 @@ def test_the_out_folder_must_be_new_empty_or_a_clip_database(tmp_path, capsys, c
                             str(tmp_path / "o"), "--smooth", "-1"], "--smooth")
 
 
+def test_a_clip_database_in_the_out_folder_is_replaced_whole(tmp_path, clean):
+    db, paths = clean
+    out = tmp_path / "db"
+    assert main(["clips-from", paths[0], "--character", "dog_cub", "--out", str(out)]) == 0
+    first = sorted(p.name for p in out.iterdir())
+    assert main(["clips-from", paths[1], "--character", "dog_cub", "--out", str(out)]) == 0
+    second = sorted(p.name for p in out.iterdir())
+    assert first != second and "manifest.toml" in second
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]   # no leftovers
+    data = tomllib.loads((out / "manifest.toml").read_text(encoding="utf-8"))
+    assert sorted(f"{c['file']}" for c in data["clips"].values()) == \
+        sorted(n for n in second if n.endswith(".bvh"))
+
+
+def test_a_take_turned_away_from_z_is_cut_facing_z(tmp_path, truth, dog):
+    from quadsim.kinematics.rotations import matrices_about_axis, quaternion_multiply
+    from quadsim.kinematics.rotations import quaternions_from_matrices
+    from quadsim.skeleton.motion import Motion
+
+    m = truth[1]
+    R = matrices_about_axis(1, np.array(math.radians(70.0)))
+    q = quaternions_from_matrices(R)
+    rot = np.array(m.rotations)
+    rot[:, 0] = quaternion_multiply(np.broadcast_to(q, rot[:, 0].shape), rot[:, 0])
+    turned = Motion(m.skeleton, m.fps, m.root_positions @ R.T, rot, foot_joints=m.foot_joints)
+    cut = cut_database([("turned", turned)], dog)
+    assert len(cut.clips) == 4
+    for c in cut.clips:
+        travel = c.motion.root_positions[-1] - c.motion.root_positions[0]
+        assert abs(travel[0]) < 0.02 * abs(travel[2]) and travel[2] > 0, (c.name, travel)
+
+
 def test_cut_database_with_no_takes_says_so(dog):
     with pytest.raises(InputError, match="no steady gait"):
         cut_database([], dog)

@@ -113,6 +113,13 @@ def test_expanded_clips_follow_the_databases_own_law(my_dog):
         assert abs(tc / float(law.contact_time(v)) - 1) < 0.15, (g, v, tc)
 
 
+def test_make_controller_steps_the_characters_database(my_dog):
+    ctl = quadsim.make_controller(str(my_dog), mode="data", dt=1 / 60)
+    frames = [ctl.step(Command(speed=2.7)) for _ in range(120)]
+    assert frames[-1].gait == "canter" and ctl.speed == pytest.approx(2.7, rel=0.03)
+    assert frames[-1].positions[:, 1].min() > -0.005
+
+
 def test_it_stops_square_and_ignores_a_leap_it_has_no_clip_for(my_dog):
     ch = load_character(my_dog)
     script = Script((0.0, 1.0, 2.5), (Command(speed=1.7), Command(speed=1.7, leap=True),

@@ -100,7 +100,8 @@ class HorseDataController:
     Parameters
     ----------
     character : Character
-        The character the clips were read onto (the horse).
+        The character the clips were read onto (the horse, or any character
+        with a clip database).
     database : ClipDatabase
         Its clips (:func:`quadsim.io.clips.load_default_database` reads the
         shipped ones, :func:`quadsim.io.clips.load_database` any folder).
@@ -513,6 +514,10 @@ class HorseDataController:
         return out
 
 
+#: The controller is the horse's by history; it plays any character's clip database.
+DataController = HorseDataController
+
+
 def simulate(character: Character, script: Script | Command, duration: float, fps: float, *,
              database: ClipDatabase) -> Motion:
     """Run a script with the data-driven horse; one step per frame.
@@ -559,4 +564,4 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
 
 
 __all__ = ["AUTO_GAITS", "HYSTERESIS", "LEAP_SPEED_MATCH", "RAMP_AHEAD", "STAND",
-           "STAND_TIME", "STOP_SPEED", "HorseDataController", "simulate"]
+           "STAND_TIME", "STOP_SPEED", "DataController", "HorseDataController", "simulate"]

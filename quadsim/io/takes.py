@@ -41,7 +41,11 @@ from quadsim.errors import InputError
 from quadsim.frames import LEGS
 from quadsim.horse.database import ASYMMETRIC, GAIT_ALIASES, SpeedLaw, cut_cycles
 from quadsim.horse.speed import DEFAULT_EXPONENT
-from quadsim.kinematics.rotations import matrices_about_axis, quaternions_from_matrices
+from quadsim.kinematics.rotations import (
+    matrices_about_axis,
+    quaternion_multiply,
+    quaternions_from_matrices,
+)
 from quadsim.skeleton.character import Character
 from quadsim.skeleton.contacts import default_contact_thresholds, foot_contacts, stance_intervals
 from quadsim.skeleton.motion import Motion
@@ -350,8 +354,6 @@ def _facing_z(motion: Motion) -> Motion:
     R = matrices_about_axis(1, np.array(-yaw))
     root = motion.root_positions @ R.T
     q = quaternions_from_matrices(R)
-    from quadsim.kinematics.rotations import quaternion_multiply
-
     rot = np.array(motion.rotations)
     rot[:, 0] = quaternion_multiply(np.broadcast_to(q, rot[:, 0].shape), rot[:, 0])
     return Motion(motion.skeleton, motion.fps, root, rot, foot_joints=motion.foot_joints)
