@@ -252,6 +252,16 @@ def test_a_take_turned_away_from_z_is_cut_facing_z(tmp_path, truth, dog):
         assert abs(travel[0]) < 0.02 * abs(travel[2]) and travel[2] > 0, (c.name, travel)
 
 
+def test_takes_at_other_frame_rates_join_the_first_takes(dog):
+    slow = take(dog, [("walk", 0.6), ("trot", 1.6)], fps=30.0)
+    fast = take(dog, [("canter", 2.6)], fps=120.0)
+    cut = cut_database([("slow", slow), ("fast", fast)], dog)
+    assert {c.motion.fps for c in cut.clips} == {30.0}
+    assert [c.gait for c in cut.clips] == ["walk", "trot", "canter"]
+    canter = cut.clips[-1]
+    assert abs(canter.frames - 30.0 * 0.33) <= 1.5          # the 120 fps stride, at 30 fps
+
+
 def test_cut_database_with_no_takes_says_so(dog):
     with pytest.raises(InputError, match="no steady gait"):
         cut_database([], dog)

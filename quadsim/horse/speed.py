@@ -67,6 +67,14 @@ m/s, the trot at 3-5, the rack at 3.5-5 and the canter at 5.2-7; 0.90-1.06
 over these gaits' whole speed ranges: a foot is moved out by at most 6 %), so
 the moved feet stay within the legs' reach.
 
+Other characters' laws
+----------------------
+Table 1 is the horse's. A clip database gives each gait's own law in m/s
+(its manifest's ``[laws.<gait>]``, fitted to the takes by ``quadsim
+clips-from``: :class:`~quadsim.horse.database.SpeedLaw`), which
+:func:`expand` takes as ``law``; :func:`hoyt_law` is Table 1's row in the same
+form (``a MPH^-b``).
+
 Method (the seed's equation 2, then time warping)
 -------------------------------------------------
 Each foot is moved about its hip/shoulder in the sagittal (forward-up) plane,

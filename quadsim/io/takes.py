@@ -52,7 +52,7 @@ from quadsim.skeleton.motion import Motion
 
 __all__ = ["LOOP_TOLERANCE_DEG", "MAX_PHASE_ERROR", "MIN_STRIDES", "CutDatabase", "Stride",
            "TakeClip", "cut_database", "fit_law", "label_gait", "measure_strides", "read_take",
-           "smooth_take", "steady_runs", "write_database"]
+           "resample", "smooth_take", "steady_runs", "write_database"]
 
 #: Fewest strides of one gait in a row that make a steady run.
 MIN_STRIDES = 3
@@ -234,6 +234,15 @@ def smooth_take(motion: Motion, sigma: float = 1.0) -> Motion:
                   foot_joints=motion.foot_joints)
 
 
+def resample(motion: Motion, fps: float) -> Motion:
+    """The take at another frame rate (root linearly, joints by slerp, same duration)."""
+    from quadsim.horse.database import sample_motion
+
+    n = int(math.floor((len(motion) - 1) * fps / motion.fps + 1e-9)) + 1
+    root, rot = sample_motion(motion, np.arange(n) * (motion.fps / fps))
+    return Motion(motion.skeleton, fps, root, rot, foot_joints=motion.foot_joints)
+
+
 def _own_toe(name: str, names) -> bool:
     return name.endswith("_toe") and name[:-4] in names
 
@@ -394,6 +403,9 @@ def fit_law(points: np.ndarray, anchor: str = "law") -> tuple[SpeedLaw, float]:
 def cut_database(takes: list[tuple[str, Motion]], character: Character) -> CutDatabase:
     """Cut a clip database out of takes already on the character (:func:`read_take`).
 
+    ``takes`` are ``(name, motion)`` pairs; takes at another frame rate than
+    the first are resampled to it (:func:`resample`), so every clip has one rate.
+
     Raises
     ------
     InputError
@@ -402,6 +414,9 @@ def cut_database(takes: list[tuple[str, Motion]], character: Character) -> CutDa
         was found and the fix).
     """
     clips, strides, notes, points = [], [], [], {}
+    if takes:                          # one database, one frame rate: the first take's
+        fps = takes[0][1].fps
+        takes = [(n, m if m.fps == fps else resample(m, fps)) for n, m in takes]
     for name, motion in takes:
         ss = measure_strides(motion, character, name)
         strides += ss
