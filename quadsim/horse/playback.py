@@ -143,8 +143,9 @@ class ClipPlayer:
         self.db = database
         self.auto = auto_gaits(character, database)
         if not self.auto:
-            raise InputError(f"the clip database{'' if database.folder is None else ' ' + str(database.folder)} "
-                             "has no gait clip (only leaps); cut some with `quadsim clips-from`")
+            where = "" if database.folder is None else f" {database.folder}"
+            raise InputError(f"the clip database{where} has no gait clip (only leaps); cut "
+                             "some with `quadsim clips-from`")
         mean = [float(np.exp(np.mean([np.log(c.speed) for c in database.by_gait(g)])))
                 for g in self.auto]
         self.bounds = [math.sqrt(a * b) for a, b in zip(mean[:-1], mean[1:])]

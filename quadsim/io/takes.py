@@ -6,9 +6,10 @@ same name does (a joint the take lacks turns with its nearest ancestor that
 it has; every leg joint must be there), in quadsim's frame (the take's up and
 forward axes and its unit found from its rest pose, as ``quadsim rig`` finds
 them), the root's path scaled by the ratio of the character's to the take's
-standing root height (the take's floor is its ``y = 0``). Takes of the character's own rig -- its extra face,
-helper and twist bones, another unit or up axis -- read as they are; the
-take's rest pose must point its bones the way the character's rest pose does.
+standing root height (the take's floor is its ``y = 0``). Takes of the
+character's own rig -- its extra face, helper and twist bones, another unit or
+up axis -- read as they are; the take's rest pose must point its bones the
+way the character's rest pose does.
 
 :func:`measure_strides` times every stride of a take from its measured foot
 contacts (:func:`quadsim.skeleton.contacts.stance_intervals`): from one
