@@ -120,6 +120,20 @@ def test_make_controller_steps_the_characters_database(my_dog):
     assert frames[-1].positions[:, 1].min() > -0.005
 
 
+def test_the_preview_plays_the_characters_database(my_dog, tmp_path):
+    from quadsim.viz.preview import Preview
+
+    p = Preview(str(my_dog), mode="data", off_screen=True, size=(160, 120),
+                record_dir=tmp_path / "rec")
+    try:
+        assert p.gait_order == list(GAITS)
+        for _ in range(90):
+            p.update(1 / 60)
+        assert p.gait == "walk" and p.world_positions[0][2] > 0.2
+    finally:
+        p.close()
+
+
 def test_it_stops_square_and_ignores_a_leap_it_has_no_clip_for(my_dog):
     ch = load_character(my_dog)
     script = Script((0.0, 1.0, 2.5), (Command(speed=1.7), Command(speed=1.7, leap=True),
