@@ -123,8 +123,11 @@ def check_mode(character, mode: str, label: str = "`mode`") -> None:
         if clip_folder(character) is None:
             raise InputError(f"{label} = 'data' needs a character with a clip database; "
                              f"{character.id!r} has none; drop `--mode data` (or set mode = "
-                             "'procedural') to run it with the procedural controller, or pick "
-                             "a character with clips (`quadsim preview horse --mode data`)")
+                             "'procedural') to run it with the procedural controller, pick "
+                             "a character with clips (`quadsim preview horse --mode data`), or "
+                             "cut a database from your takes (`quadsim clips-from TAKE.bvh "
+                             "--character CHARACTER.toml --out DIR`) and name it in the "
+                             "character file's [character] table (`clips = \"DIR\"`)")
 
 
 def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60.0,
@@ -136,7 +139,8 @@ def make_controller(character, mode: str = "procedural", *, dt: float = 1.0 / 60
     character : Character or str
         A character, its identifier (``"leopard"``) or a character file.
     mode : {"procedural", "data"}
-        ``"data"`` plays the character's clip database (the horse).
+        ``"data"`` plays the character's clip database (the horse's shipped
+        one, or the one its file names: ``[character] clips``).
     dt : float
         Default step (s).
     seed : int

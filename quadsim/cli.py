@@ -47,7 +47,7 @@ PROG = "quadsim"
 #: modules that each register a sub-command with ``register(subparsers)``; they import
 #: their heavy parts inside the command, so listing them costs nothing at start-up
 COMMAND_MODULES = ("quadsim.cli_rig", "quadsim.cli_clips", "quadsim.cli_retarget",
-                   "quadsim.cli_sweep")
+                   "quadsim.cli_sweep", "quadsim.cli_clips_from")
 
 
 class _UsageError(Exception):

@@ -204,8 +204,10 @@ def parse_config(data: dict, source: str | Path | None = None) -> RunConfig:
 
         if clip_folder(character) is None:
             raise InputError(f"{src}: `mode` = 'data' needs a character with a clip "
-                             f"database (characters/<id>/clips/manifest.toml); "
-                             f"{character.id!r} has none; allowed for it: 'procedural'")
+                             f"database (characters/<id>/clips/manifest.toml, or the folder "
+                             f"its file's [character] `clips` names: `quadsim clips-from` "
+                             f"cuts one from your takes); {character.id!r} has none; allowed "
+                             f"for it: 'procedural'")
         clip_gaits = playable_gaits(character)
     units = data.get("units", "m")
     if units not in UNITS:

@@ -17,7 +17,7 @@ from quadsim.skeleton.motion import Motion
 def test_default_database_has_the_seed_gaits(db):
     gait_clips = [c for c in db.clips.values() if c.gait != "leap"]
     assert len(gait_clips) == 11
-    assert set(db.gaits) == set(CLIP_GAITS)
+    assert set(db.gaits) == set(CLIP_GAITS) - {"pace", "rotary_gallop"}
     for c in db.clips.values():
         assert c.source
         assert len(c.motion) == c.frames

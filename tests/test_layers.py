@@ -28,7 +28,7 @@ LAYERS = [
     ("quadsim.clipset", "quadsim.dataset"),
     ("quadsim.viz",),
     ("quadsim.cli", "quadsim.cli_rig", "quadsim.cli_clips", "quadsim.cli_retarget",
-     "quadsim.cli_sweep", "quadsim.__main__", "quadsim"),
+     "quadsim.cli_sweep", "quadsim.cli_clips_from", "quadsim.__main__", "quadsim"),
 ]
 
 #: Pairs of the same layer that must not import each other (either way).

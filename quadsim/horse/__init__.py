@@ -1,4 +1,5 @@
-"""The data-driven horse mode: a clip database expanded to any speed.
+"""The data-driven mode: a clip database expanded to any speed (the horse's shipped
+one, or any character's: :mod:`quadsim.io.takes` cuts one from long takes).
 
 Modules: :mod:`.database` (looped clips and the database of them; the
 :func:`~.database.cut_cycles` builder; clip folders are read by
@@ -18,12 +19,13 @@ data-driven horse, a :class:`quadsim.controller.Controller`, and
 """
 
 from .database import Clip, ClipDatabase, Cycle, cut_cycles
-from .controller import HorseDataController
+from .controller import DataController, HorseDataController
 from .controller import simulate as simulate_data
 from .speed import HOYT, SPEED_UNIT, contact_time, expand, step_length
 from .timewarp import blend_frames, leg_times, synchronous_transition, transition_motion
 
 __all__ = [
+    "DataController",
     "HOYT",
     "HorseDataController",
     "SPEED_UNIT",

@@ -18,13 +18,15 @@
   feet, equation 11) from the current phase; the transition is computed once
   when it starts and played through, then the new clip continues from the
   transition's end posture.
-* **Standing.** Speed 0 slows to a walk at :data:`STOP_SPEED`, then over
+* **Standing.** Speed 0 slows to the slowest automatic gait (the walk) at
+  :data:`STOP_SPEED` (or its slowest clip's speed, when slower), then over
   :data:`STAND_TIME` the walk's generic time runs down to a stop while the pose
   blends into the character's rest pose (standing square); the feet on the
   ground stay planted and a foot in the air sets down, so the horse ends with
   all four feet still on the ground. A speed sets it off again: the rest pose
   blends back into the wanted gait's clip. It does not turn while standing.
-* **Leap.** ``command.leap`` (once per command) moves to the leap clip's start
+* **Leap** (when the database has a leap clip; without one a leap command is
+  said once and ignored). ``command.leap`` (once per command) moves to the leap clip's start
   gait at the leap clip's speed, starts the leap clip when the reference hind
   foot lands (the leap clip was keyed from that gait's clip, so its first
   frame is that posture: the blend in is seamless), plays it once and goes on
@@ -73,7 +75,8 @@ from .timewarp import REFERENCE
 
 #: How far ahead of the shoulders (m) a new slope starts (beyond the longest reach of a fore foot).
 RAMP_AHEAD = 1.0
-#: Walking speed (m/s) from which the horse stops, and the time (s) to settle into the stance.
+#: Walking speed (m/s) from which the horse stops (at most the slowest gait's slowest
+#: clip speed), and the time (s) to settle into the stance.
 STOP_SPEED = 1.0
 STAND_TIME = 0.8
 #: Gait label of the standstill.
@@ -97,7 +100,8 @@ class HorseDataController:
     Parameters
     ----------
     character : Character
-        The character the clips were read onto (the horse).
+        The character the clips were read onto (the horse, or any character
+        with a clip database).
     database : ClipDatabase
         Its clips (:func:`quadsim.io.clips.load_default_database` reads the
         shipped ones, :func:`quadsim.io.clips.load_database` any folder).
@@ -122,6 +126,10 @@ class HorseDataController:
         The gait of the clip being played (the new one from a transition's end).
     clip : Clip or None
         The expanded clip being played.
+    stop_gait : str
+        The gait it stops from and sets off in (the slowest automatic gait).
+    stop_speed : float
+        The speed (m/s) it stops from.
     phase : float
         Generic time in the current clip (cycles, unwrapped).
     """
@@ -141,6 +149,8 @@ class HorseDataController:
         self.gait_order = self.player.gaits()[:MAX_GAIT_KEYS]
         self.auto_gaits = list(self.player.auto)
         self.max_speed = max(self.gait_speed_cap(g) for g in self.gait_order)
+        self.stop_gait = self.auto_gaits[0]
+        self.stop_speed = min(STOP_SPEED, database.by_gait(self.stop_gait)[0].speed)
         self.clip_gait: str | None = None
         self.clip = None
         self.phase = 0.0
@@ -347,17 +357,21 @@ class HorseDataController:
                 and self.playing != "leap"):
             self._leap_cmd = command
             self._leap_pending = True
+        elif command.leap and self.leap_clip is None:
+            self.notices.say(("leap",), "the clip database has no leap clip: the leap is "
+                             "not played (the leap is optional)", stacklevel=3)
         gait, speed = self._target(command)
         first = self.clip is None
         stand_goal = 0.0
         if gait == STAND:
-            ready = (self.playing == "steady" and self.clip_gait == "walk"
-                     and self.clip.speed <= STOP_SPEED * (1 + 2 * SPEED_STEP))
+            stop = (self.stop_gait, self.stop_speed)
+            ready = (self.playing == "steady" and self.clip_gait == stop[0]
+                     and self.clip.speed <= stop[1] * (1 + 2 * SPEED_STEP))
             if first or self.stand_w > 0 or ready:
                 stand_goal = 1.0
-                gait, speed = ("walk", STOP_SPEED) if first else (self.clip_gait, self.clip.speed)
+                gait, speed = stop if first else (self.clip_gait, self.clip.speed)
             else:
-                gait, speed = "walk", STOP_SPEED
+                gait, speed = stop
         self._stand_goal_last = stand_goal
         if first:
             self.clip_gait = gait
@@ -500,6 +514,10 @@ class HorseDataController:
         return out
 
 
+#: The controller is the horse's by history; it plays any character's clip database.
+DataController = HorseDataController
+
+
 def simulate(character: Character, script: Script | Command, duration: float, fps: float, *,
              database: ClipDatabase) -> Motion:
     """Run a script with the data-driven horse; one step per frame.
@@ -546,4 +564,4 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
 
 
 __all__ = ["AUTO_GAITS", "HYSTERESIS", "LEAP_SPEED_MATCH", "RAMP_AHEAD", "STAND",
-           "STAND_TIME", "STOP_SPEED", "HorseDataController", "simulate"]
+           "STAND_TIME", "STOP_SPEED", "DataController", "HorseDataController", "simulate"]

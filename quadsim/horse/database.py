@@ -14,7 +14,7 @@ take by the measured foot contacts and labels their touchdowns.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -27,10 +27,12 @@ from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 
 LEGS = ("LF", "RF", "LH", "RH")
-#: Gaits a clip may have; ``gallop`` is the horse's transverse gallop.
-CLIP_GAITS = ("walk", "amble", "trot", "rack", "canter", "gallop", "leap")
+#: Gaits a clip may have (the shared gait table's, slowest first, and the leap);
+#: ``gallop`` is the transverse gallop.
+CLIP_GAITS = ("walk", "amble", "trot", "rack", "pace", "canter", "gallop", "rotary_gallop",
+              "leap")
 #: Gaits with a leading fore leg.
-ASYMMETRIC = ("canter", "gallop", "leap")
+ASYMMETRIC = ("canter", "gallop", "rotary_gallop", "leap")
 #: Other names a clip's or a command's gait may be given by.
 GAIT_ALIASES = {"transverse_gallop": "gallop"}
 #: Largest joint rotation (deg) between a cycle's first pose and the pose one
@@ -79,13 +81,43 @@ class Clip:
         return self.frames / self.motion.fps
 
 
+@dataclass(frozen=True)
+class SpeedLaw:
+    """A gait's contact-time law ``Tc = a v^b`` (Tc in s, v in m/s).
+
+    Attributes
+    ----------
+    a : float
+        Contact time (s) at 1 m/s.
+    b : float
+        Exponent (negative: faster, shorter contacts).
+    anchor : {"law", "clip"}
+        How a clip is expanded to another speed (:func:`quadsim.horse.speed.expand`):
+        to ``a v^b`` itself, or by ``(v / v0)^b`` relative to the clip.
+    """
+
+    a: float
+    b: float
+    anchor: str = "law"
+
+    def contact_time(self, speed):
+        """``a v^b`` (s) at ``speed`` (m/s), any shape."""
+        return self.a * np.asarray(speed, dtype=float) ** self.b
+
+
 @dataclass(frozen=True, eq=False)
 class ClipDatabase:
-    """Clips by name, for one character."""
+    """Clips by name, for one character.
+
+    ``laws`` maps a gait to its :class:`SpeedLaw` (a clip folder's
+    ``[laws.<gait>]`` tables); a gait without one uses the horse's Table 1
+    (:data:`quadsim.horse.speed.HOYT`) where it has a row.
+    """
 
     character: Character
     clips: dict
     folder: Path | None = None
+    laws: dict = field(default_factory=dict)
 
     def by_gait(self, gait: str) -> list[Clip]:
         """Clips of a gait, slowest first."""
@@ -167,12 +199,16 @@ class Cycle:
 def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                loop_tolerance_deg: float = LOOP_TOLERANCE_DEG,
                steady_tolerance: float = 0.03, character: Character | None = None,
-               where: str = "take", root_tolerance: float = 0.02) -> list[Cycle]:
+               where: str = "take", root_tolerance: float = 0.02,
+               contact_tolerance: float | None = None) -> list[Cycle]:
     """Cut steady, looped stride cycles out of a long take by its foot contacts.
 
     Contacts are measured from the foot positions
     (:func:`quadsim.skeleton.contacts.foot_contacts`); a cycle runs from one
-    touchdown of the ``reference`` foot (default LH) to its next. Cycles whose
+    touchdown of the ``reference`` foot (default LH) to its next (``contact_tolerance``,
+    m: the contacts' widest on-ground band, see
+    :func:`~quadsim.skeleton.contacts.foot_contacts`; a foot landing up to half a
+    frame before the reference foot counts as landing with it). Cycles whose
     period differs from the take's median period by more than
     ``steady_tolerance`` (fraction) are not steady and skipped. The chosen
     cycle is resampled (slerp) to a whole number of frames at the take's frame
@@ -200,8 +236,8 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         raise InputError(f"{where}: the motion does not name its foot joints")
     fps = motion.fps
     feet = motion.foot_positions()
-    c = foot_contacts(feet, fps)
-    iv = stance_intervals(c, fps, feet)
+    c = foot_contacts(feet, fps, tolerance=contact_tolerance)
+    iv = stance_intervals(c, fps, feet, tolerance=contact_tolerance)
     on = [s[np.isfinite(s[:, 0]), 0] for s in iv]
     ref = on[reference]
     if len(ref) < 2:
@@ -252,7 +288,7 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
         phase = np.zeros(4)
         for i in range(4):
             ti = on[i]
-            inside = ti[(ti >= t0 - 1e-9) & (ti < t1 - 1e-9)]
+            inside = ti[(ti >= t0 - 0.5 / fps) & (ti < t1 - 0.5 / fps)]
             if len(inside) == 0:
                 raise InputError(f"{where}: foot {LEGS[i]} does not land in the cycle at "
                                  f"{t0:.3f}-{t1:.3f} s")
@@ -358,6 +394,7 @@ __all__ = [
     "Clip",
     "ClipDatabase",
     "Cycle",
+    "SpeedLaw",
     "contacts_from_stance",
     "cut_cycles",
     "cycle_stance",

@@ -3,13 +3,15 @@
 :class:`ClipPlayer` is what :class:`~quadsim.horse.controller.HorseDataController`
 asks of its clips:
 
-* **Gait by speed.** The automatic gaits (:data:`AUTO_GAITS` that have clips;
-  amble and rack only on request) are chosen by speed bands whose boundaries
+* **Gait by speed.** The automatic gaits (:func:`auto_gaits`: the character's
+  ``locomotion.auto`` gaits that have clips, else :data:`AUTO_GAITS`; the
+  horse's amble and rack only on request) are chosen by speed bands whose boundaries
   are the geometric means of neighbouring gaits' clip speeds, with a
   hysteresis of :data:`HYSTERESIS` either side so a speed near a boundary
   does not flicker (:meth:`ClipPlayer.gait_for`).
 * **Speed.** A gait's nearest clip is expanded to the asked speed
-  (:func:`quadsim.horse.speed.expand`; speeds quantised to :data:`SPEED_STEP`
+  (:func:`quadsim.horse.speed.expand` with the gait's law, :func:`gait_law`;
+  speeds quantised to :data:`SPEED_STEP`
   relative steps and the expansions cached), between :data:`SPEED_REACH`
   times the gait's slowest and fastest clip (:meth:`ClipPlayer.expanded`,
   :meth:`ClipPlayer.speed_range`).
@@ -35,20 +37,22 @@ from ..kinematics.compiled import FixedEntry
 from ..skeleton.character import Character
 from ..skeleton.contacts import foot_contacts
 from ..skeleton.motion import Motion
-from .database import GAIT_ALIASES, Clip, ClipDatabase
+from .database import GAIT_ALIASES, Clip, ClipDatabase, SpeedLaw
 from .place_kernel import pack_contacts, sample_row, stance_row
 from .root import FLIGHT, clip_stance_cycles
-from .speed import HOYT, expand
+from .speed import DEFAULT_EXPONENT, expand, hoyt_law
 from .timewarp import leg_times, transition_motion
 from .turning import GROUND_BAND
 
-#: Gaits chosen by speed, slowest first (amble and rack only on request).
-AUTO_GAITS = ("walk", "trot", "canter", "gallop")
+#: Gaits chosen by speed, slowest first, for a character whose ``locomotion.auto``
+#: names none with clips (amble, rack and pace only on request).
+AUTO_GAITS = ("walk", "trot", "canter", "gallop", "rotary_gallop")
 #: Relative hysteresis about each gait boundary.
 HYSTERESIS = 0.06
 #: Relative speed quantum of the expansion cache.
 SPEED_STEP = 0.02
-#: Gaits expanded relative to their clip (the absolute law is out of the leg's reach).
+#: Gaits expanded relative to their clip when they use Table 1's law (the horse's
+#: absolute law is out of the leg's reach).
 CLIP_ANCHORED = ("amble", "gallop")
 #: Lowest and highest speed played, as multiples of the gait's slowest / fastest clip.
 SPEED_REACH = (0.6, 1.4)
@@ -69,6 +73,35 @@ def fill_gaps(stance: np.ndarray, n: int) -> np.ndarray:
             if 0 < a and b < len(out) and b - a <= n:
                 out[a:b, j] = True
     return out
+
+
+def auto_gaits(character: Character, database: ClipDatabase) -> list[str]:
+    """The gaits chosen by speed, slowest first: the character's ``locomotion.auto``
+    gaits that have clips (names as the clips give them), else those of
+    :data:`AUTO_GAITS`, else every clip gait but the leap by its clips' mean speed."""
+    have = [g for g in database.gaits if g != "leap"]
+    auto = []
+    for g in character.locomotion.get("auto", ()) or ():
+        g = GAIT_ALIASES.get(g, g)
+        if g in have and g not in auto:
+            auto.append(g)
+    if not auto:
+        auto = [g for g in AUTO_GAITS if g in have]
+    if not auto:
+        auto = have
+    return sorted(auto, key=lambda g: float(np.mean([np.log(c.speed)
+                                                     for c in database.by_gait(g)])))
+
+
+def gait_law(database: ClipDatabase, gait: str) -> SpeedLaw:
+    """The contact-time law a gait's clips are expanded by: the database's own
+    (``[laws.<gait>]``), else Table 1's row (relative to the clip for
+    :data:`CLIP_ANCHORED` gaits), else :data:`DEFAULT_EXPONENT` relative to the clip."""
+    law = database.laws.get(gait)
+    if law is not None:
+        return law
+    law = hoyt_law(gait, "clip" if gait in CLIP_ANCHORED else "law")
+    return law if law is not None else SpeedLaw(float("nan"), DEFAULT_EXPONENT, "clip")
 
 
 class _Packed:
@@ -108,9 +141,11 @@ class ClipPlayer:
     def __init__(self, character: Character, database: ClipDatabase):
         self.character = character
         self.db = database
-        self.auto = [g for g in AUTO_GAITS if database.by_gait(g)]
+        self.auto = auto_gaits(character, database)
         if not self.auto:
-            raise InputError("the clip database has none of the gaits walk, trot, canter, gallop")
+            where = "" if database.folder is None else f" {database.folder}"
+            raise InputError(f"the clip database{where} has no gait clip (only leaps); cut "
+                             "some with `quadsim clips-from`")
         mean = [float(np.exp(np.mean([np.log(c.speed) for c in database.by_gait(g)])))
                 for g in self.auto]
         self.bounds = [math.sqrt(a * b) for a, b in zip(mean[:-1], mean[1:])]
@@ -192,8 +227,8 @@ class ClipPlayer:
         if key not in self._cache:
             v = math.exp(q * math.log1p(SPEED_STEP))
             base = self.db.nearest(gait, v)
-            anchor = "clip" if gait in CLIP_ANCHORED or gait not in HOYT else "law"
-            self._cache[key] = expand(base, self.character, v, anchor=anchor)
+            law = gait_law(self.db, gait)
+            self._cache[key] = expand(base, self.character, v, anchor=law.anchor, law=law)
         clip = self._cache[key]
         self._last_expanded = (gait, speed_asked, clip)
         return clip
@@ -312,4 +347,4 @@ def start_transition(character: Character, clip1: Clip, clip2: Clip, phase: floa
 
 
 __all__ = ["AUTO_GAITS", "CLIP_ANCHORED", "HYSTERESIS", "MIN_AIR", "SPEED_REACH", "SPEED_STEP",
-           "ClipPlayer", "Transition", "fill_gaps", "start_transition"]
+           "ClipPlayer", "Transition", "auto_gaits", "fill_gaps", "gait_law", "start_transition"]

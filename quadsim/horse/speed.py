@@ -67,6 +67,14 @@ m/s, the trot at 3-5, the rack at 3.5-5 and the canter at 5.2-7; 0.90-1.06
 over these gaits' whole speed ranges: a foot is moved out by at most 6 %), so
 the moved feet stay within the legs' reach.
 
+Other characters' laws
+----------------------
+Table 1 is the horse's. A clip database gives each gait's own law in m/s
+(its manifest's ``[laws.<gait>]``, fitted to the takes by ``quadsim
+clips-from``: :class:`~quadsim.horse.database.SpeedLaw`), which
+:func:`expand` takes as ``law``; :func:`hoyt_law` is Table 1's row in the same
+form (``a MPH^-b``).
+
 Method (the seed's equation 2, then time warping)
 -------------------------------------------------
 Each foot is moved about its hip/shoulder in the sagittal (forward-up) plane,
@@ -92,7 +100,7 @@ from ..skeleton.contacts import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
-from .database import Clip, label_touchdowns, looped, pin_cycle, sample_motion
+from .database import Clip, SpeedLaw, label_touchdowns, looped, pin_cycle, sample_motion
 from .root import clip_stance_cycles
 from .legs import place_feet
 
@@ -107,6 +115,9 @@ HOYT = {
 }
 SPEED_UNIT = "mph"
 MPH = 0.44704  # m/s per mile per hour
+#: Exponent of a gait with neither a law of its own nor a row in :data:`HOYT`
+#: (the mean of Table 1's exponents, rounded), used relative to the clip.
+DEFAULT_EXPONENT = -0.7
 FORWARD = 2
 UP = 1
 
@@ -117,6 +128,15 @@ def contact_time(gait: str, speed) -> np.ndarray:
         raise InputError(f"no contact-time law for gait {gait!r}; known: {', '.join(HOYT)}")
     a, b = HOYT[gait]
     return a * (np.asarray(speed, dtype=float) / MPH) ** b
+
+
+def hoyt_law(gait: str, anchor: str = "law") -> SpeedLaw | None:
+    """Table 1's row of a gait as a :class:`~quadsim.horse.database.SpeedLaw` in m/s
+    (``a MPH^-b``), or None when the table has no row for it."""
+    if gait not in HOYT:
+        return None
+    a, b = HOYT[gait]
+    return SpeedLaw(a * MPH ** (-b), b, anchor)
 
 
 def step_length(gait: str, speed) -> np.ndarray:
@@ -145,7 +165,7 @@ def clip_contact_time(clip: Clip) -> float:
 
 
 def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law",
-           ground: float = 0.0) -> Clip:
+           ground: float = 0.0, law: SpeedLaw | None = None) -> Clip:
     """The clip expanded to a new speed (m/s), one looped cycle.
 
     Parameters
@@ -158,6 +178,11 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
     anchor : {"law", "clip"}
         Make the contact time ``a v^b`` (``"law"``) or ``Tc0 (v/v0)^b``
         (``"clip"``); see the module notes.
+    ground : float
+        Height of the clip's ground (m).
+    law : SpeedLaw, optional
+        The gait's contact-time law (m/s); default Table 1's row of the gait
+        (:data:`HOYT`).
 
     Returns
     -------
@@ -165,16 +190,18 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
         Same gait; ``speed`` the new one; ``frames`` the new cycle length at
         the clip's frame rate; touchdown frames scaled.
     """
-    if clip.gait not in HOYT:
+    if law is None:
+        law = hoyt_law(clip.gait)
+    if law is None:
         raise InputError(f"clip {clip.name!r}: gait {clip.gait!r} has no speed law")
     if not speed > 0:
         raise InputError(f"speed must be > 0 m/s, got {speed!r}")
     if anchor not in ("law", "clip"):
         raise InputError(f"anchor must be 'law' or 'clip', got {anchor!r}")
-    b = HOYT[clip.gait][1]
+    b = law.b
     tc0 = clip_contact_time(clip)
     if anchor == "law":
-        tc1 = float(contact_time(clip.gait, speed))
+        tc1 = float(law.contact_time(speed))
     else:
         tc1 = tc0 * (speed / clip.speed) ** b
     m = clip.motion
@@ -218,5 +245,5 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
                           f"r = {r:.3f}, k = {k:.3f})")
 
 
-__all__ = ["HOYT", "MPH", "SPEED_UNIT", "clip_contact_time", "contact_time", "expand",
-           "measure_contact_time", "step_length"]
+__all__ = ["DEFAULT_EXPONENT", "HOYT", "MPH", "SPEED_UNIT", "clip_contact_time", "contact_time",
+           "expand", "hoyt_law", "measure_contact_time", "step_length"]

@@ -12,13 +12,25 @@ The manifest (``manifest.toml`` in the clip folder) has one table per clip::
     source = "how the clip was made"
 
 A leap clip also gives ``start_gait`` (the gait it starts from) and
-``height`` (the clearance of its feet at the top of the flight, m).
+``height`` (the clearance of its feet at the top of the flight, m). Leap
+clips are optional.
+
+A gait's contact-time law (``Tc = a v^b``, Tc in s, v in m/s) may be given
+in a top-level table; a gait without one uses the horse's Table 1
+(:data:`quadsim.horse.speed.HOYT`) where it has a row, else an exponent of
+its own clips (:func:`quadsim.horse.playback.gait_law`)::
+
+    [laws.trot]
+    a = 0.31                       # contact time (s) at 1 m/s
+    b = -0.68
+    anchor = "law"                 # or "clip": (v / v0)^b relative to the clip
 
 Clips are read onto the character's skeleton by joint name: every joint of
 the character's legs must be present in the BVH; other character joints the
 file lacks stay at rest. :func:`load_database` reads any folder,
 :func:`load_default_database` a character's shipped one
-(:func:`clip_folder`); the result is a
+(:func:`clip_folder`: the folder the character file's ``character.clips``
+names, else ``characters/<id>/clips``); the result is a
 :class:`~quadsim.horse.database.ClipDatabase` for
 :class:`~quadsim.horse.controller.HorseDataController`.
 """
@@ -31,17 +43,27 @@ from pathlib import Path
 import numpy as np
 
 from quadsim.errors import InputError
-from quadsim.horse.database import ASYMMETRIC, CLIP_GAITS, GAIT_ALIASES, LEGS, Clip, ClipDatabase
+from quadsim.horse.database import (
+    ASYMMETRIC,
+    CLIP_GAITS,
+    GAIT_ALIASES,
+    LEGS,
+    Clip,
+    ClipDatabase,
+    SpeedLaw,
+)
 from quadsim.io.bvh import read_bvh
 from quadsim.skeleton.character import Character, characters_dir
 from quadsim.skeleton.motion import Motion
 
-__all__ = ["MANIFEST_KEYS", "clip_folder", "load_database", "load_default_database",
-           "playable_gaits"]
+__all__ = ["LAW_KEYS", "MANIFEST_KEYS", "clip_folder", "load_database",
+           "load_default_database", "playable_gaits"]
 
 #: The fields a manifest's clip table may have.
 MANIFEST_KEYS = frozenset({"file", "gait", "speed", "frames", "touchdown", "lead", "source",
                            "start_gait", "height"})
+#: The fields of a manifest's ``[laws.<gait>]`` table.
+LAW_KEYS = frozenset({"a", "b", "anchor", "source"})
 
 
 def load_database(folder, character: Character) -> ClipDatabase:
@@ -60,10 +82,10 @@ def load_database(folder, character: Character) -> ClipDatabase:
         data = tomllib.loads(man.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as e:
         raise InputError(f"{man}: not valid TOML: {e}") from None
-    unknown = set(data) - {"clips", "description"}
+    unknown = set(data) - {"clips", "description", "laws"}
     if unknown:
         raise InputError(f"{man}: unknown top-level key(s) {sorted(unknown)}; "
-                         "allowed: clips, description")
+                         "allowed: clips, description, laws")
     table = data.get("clips")
     if not isinstance(table, dict) or not table:
         raise InputError(f"{man}: `clips` must be a table with at least one clip")
@@ -71,7 +93,38 @@ def load_database(folder, character: Character) -> ClipDatabase:
     for name, entry in table.items():
         where = f"{man}: clip {name!r}"
         clips[name] = _load_clip(name, entry, where, folder, character)
-    return ClipDatabase(character, clips, folder)
+    return ClipDatabase(character, clips, folder, _load_laws(data.get("laws", {}), man))
+
+
+def _load_laws(table, man) -> dict:
+    """The ``[laws.<gait>]`` tables as :class:`~quadsim.horse.database.SpeedLaw` by gait."""
+    if not isinstance(table, dict):
+        raise InputError(f"{man}: `laws` must be a table of [laws.<gait>] tables")
+    out = {}
+    for gait, t in table.items():
+        where = f"{man}: laws.{gait}"
+        g = GAIT_ALIASES.get(gait, gait)
+        if g not in CLIP_GAITS[:-1]:
+            raise InputError(f"{where}: {gait!r} is not a known gait; allowed: "
+                             f"{', '.join(CLIP_GAITS[:-1])}")
+        if not isinstance(t, dict):
+            raise InputError(f"{where}: must be a table {{ a = .., b = .. }}")
+        bad = set(t) - LAW_KEYS
+        if bad:
+            raise InputError(f"{where}: unknown field(s) {sorted(bad)}; "
+                             f"allowed: {sorted(LAW_KEYS)}")
+        a, b = t.get("a"), t.get("b")
+        if isinstance(a, bool) or not isinstance(a, (int, float)) or not 0 < a < 1e3:
+            raise InputError(f"{where}: `a` must be a positive number (s, the contact time "
+                             f"at 1 m/s), got {a!r}")
+        if isinstance(b, bool) or not isinstance(b, (int, float)) or not -3.0 <= b <= 0.5:
+            raise InputError(f"{where}: `b` must be a number in [-3, 0.5] (the exponent), "
+                             f"got {b!r}")
+        anchor = t.get("anchor", "law")
+        if anchor not in ("law", "clip"):
+            raise InputError(f"{where}: `anchor` must be \"law\" or \"clip\", got {anchor!r}")
+        out[g] = SpeedLaw(float(a), float(b), anchor)
+    return out
 
 
 def _load_clip(name, entry, where, folder, character) -> Clip:
@@ -167,13 +220,17 @@ def _retarget(raw: Motion, character: Character, where: str) -> Motion:
 
 
 def clip_folder(character: Character) -> Path | None:
-    """The shipped clip folder of a character, ``characters/<id>/clips``, if it exists."""
+    """The clip folder of a character: the one its file names (``character.clips``),
+    else the shipped ``characters/<id>/clips``, if it exists."""
+    named = None if character.file is None else character.file.character.clips
+    if named is not None:
+        return named if (named / "manifest.toml").is_file() else None
     d = characters_dir() / character.id / "clips"
     return d if (d / "manifest.toml").is_file() else None
 
 
 def playable_gaits(character: Character) -> tuple[str, ...]:
-    """The gaits the character's shipped clips can be asked for (leap clips excepted),
+    """The gaits the character's clips (:func:`clip_folder`) can be asked for (leap clips excepted),
     read from the manifest alone (no clip is loaded); empty without a clip folder."""
     d = clip_folder(character)
     if d is None:
@@ -188,9 +245,12 @@ def playable_gaits(character: Character) -> tuple[str, ...]:
 
 
 def load_default_database(character: Character) -> ClipDatabase:
-    """The character's shipped clip database (``characters/<id>/clips``)."""
+    """The character's clip database (:func:`clip_folder`: its file's
+    ``character.clips``, else the shipped ``characters/<id>/clips``)."""
     d = clip_folder(character)
     if d is None:
         raise InputError(f"character {character.id!r} has no clip database "
-                         f"(characters/{character.id}/clips/manifest.toml)")
+                         f"(characters/{character.id}/clips/manifest.toml, or a "
+                         "`clips = \"DIR\"` key in its file's [character] table: cut one "
+                         "with `quadsim clips-from`)")
     return load_database(d, character)

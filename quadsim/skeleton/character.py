@@ -4,7 +4,10 @@ A character file (TOML; the shipped ones are in the package data,
 :func:`characters_dir`) holds:
 
 ``[character]``
-    ``id``, ``name``, ``species``, ``mass`` (kg), ``sources`` (list of str).
+    ``id``, ``name``, ``species``, ``mass`` (kg), ``sources`` (list of str);
+    optional ``model`` (the user's rig it was adopted from) and ``clips`` (its
+    clip database for the data mode, a folder with a ``manifest.toml``), both
+    paths relative to the file.
 ``joints``
     An array of inline tables ``{ name, parent, offset = [x, y, z], end = [x, y, z] }``
     in topological order (parents first). Offsets are metres in world axes at

@@ -60,7 +60,7 @@ GAIT_FIELDS = ("duty", "phase", "froude", "speed", "stride", "swing_height", "sp
 _TOP_KEYS = ("mirror_left_legs", "joints", "character", "chains", "legs", "limits",
              "locomotion", "gaits")
 _JOINT_KEYS = ("name", "parent", "offset", "end")
-_META_KEYS = ("id", "name", "species", "mass", "sources", "model")
+_META_KEYS = ("id", "name", "species", "mass", "sources", "model", "clips")
 _CHAIN_KEYS = ("spine", "neck", "head", "tail")
 _LEG_KEYS = ("chain", "ik", "bend", "pre_gain", "post_gain")
 
@@ -91,7 +91,9 @@ class JointEntry:
 class CharacterMeta:
     """The ``[character]`` table: ``id``, ``name``, ``species``, ``mass`` (kg), ``sources``,
     and ``model``: the user's own rig (glTF model or BVH) the character was adopted from,
-    its path relative to the character file (an absolute :class:`~pathlib.Path` here)."""
+    its path relative to the character file (an absolute :class:`~pathlib.Path` here),
+    and ``clips``: the character's clip database for the data mode, a folder holding a
+    ``manifest.toml`` (as ``quadsim clips-from`` writes), relative to the file likewise."""
 
     id: str
     name: str
@@ -99,6 +101,7 @@ class CharacterMeta:
     mass: float
     sources: tuple[str, ...] = ()
     model: Path | None = None
+    clips: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -340,7 +343,19 @@ def _meta(t: dict, where: str, src: str) -> CharacterMeta:
             raise InputError(f"{src}: character.model: no .gltf, .glb or .bvh file at "
                              f"{model}; give the rigged model's path relative to the "
                              "character file")
-    return CharacterMeta(ident, name, species, float(mass), tuple(sources), model)
+    clips = t.get("clips")
+    if clips is not None:
+        if not isinstance(clips, str) or not clips:
+            raise InputError(f"{src}: character.clips must be the path of a clip folder "
+                             f"(relative to the character file), got {clips!r}")
+        base = Path(src).parent if not src.startswith("<") else Path(".")
+        clips = (base / clips).resolve()
+        if not (clips / "manifest.toml").is_file():
+            raise InputError(f"{src}: character.clips: no clip database at {clips} (no "
+                             "manifest.toml there); cut one from your takes with `quadsim "
+                             "clips-from TAKE.bvh --character THIS.toml --out DIR` and give "
+                             "DIR relative to the character file, or remove the key")
+    return CharacterMeta(ident, name, species, float(mass), tuple(sources), model, clips)
 
 
 def _chains(t: dict, src: str) -> Chains:
