@@ -72,6 +72,10 @@ KINDS = [
          ".bvh", "Z", "cm"),
     Kind("bvh_blender", dict(style="blender", hind_bones=2, scapula=True, whiskers=2),
          ".bvh", "Y", "m"),
+    # a root bone on the ground (the hips its child) in centimetres: the root's height
+    # alone says nothing of the unit (read as metres, its hip stood 50 m tall)
+    Kind("bvh_ground_root_cm", dict(style="blender", hind_bones=3, scapula=True),
+         ".bvh", "Z", "cm"),
 ]
 
 

@@ -7,8 +7,9 @@ as rest translations (BVH rest rotations are identity), end sites and each
 joint's rotation channel order, in the file's own axes and unit. The up and
 forward axes are found from the shape
 (:func:`~quadsim.io.rig_structure.detect_frame`) and the unit from the hip
-height along the up axis (:func:`~quadsim.io.guess.guess_units`: above
-:data:`~quadsim.io.guess.CM_ABOVE` file units it is centimetres).
+height along the up axis -- the root's, or half the rest pose's whole height
+when a root bone lies on the ground (:func:`~quadsim.io.guess.guess_units`:
+above :data:`~quadsim.io.guess.CM_ABOVE` file units it is centimetres).
 
 :func:`write_rig_bvh` writes motions of an adopted skeleton as a BVH file of
 the user's own hierarchy: every joint of the rig with its name, OFFSET and End
@@ -74,7 +75,9 @@ def read_bvh_rig(path, feet=None) -> Rig:
     h = P @ frame.axes[1]
     tips = [P[k] + j.end_site for k, j in enumerate(joints) if j.end_site is not None]
     low = min(h.min(), *(t @ frame.axes[1] for t in tips)) if tips else h.min()
-    unit = guess_units(max(float(h[0] - low), 0.0))
+    # the root's height over the lowest point, or half the rest pose's whole height
+    # where the root stands lower than that (a root bone on the ground says nothing)
+    unit = guess_units(max(float(h[0] - low), 0.5 * float(h.max() - low), 0.0))
     orders = []
     for jt in joints:
         o = "".join(_AXES[_CHANNELS[c.lower()][1]] for c in jt.channels
