@@ -86,9 +86,9 @@ def compare(rev: str, rounds: int = 5, characters=("leopard", "horse"), frames: 
                          "(e.g. `git log --oneline` lists them)")
     work = Path(tempfile.mkdtemp(prefix="quadsim-compare-"))
     other = work / "tree"
-    subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(other), rev],
-                   check=True)
-    try:
+    try:  # (the worktree inside: an interrupt while git checks it out removes it too)
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(other),
+                        rev], check=True)
         sides = {"this": (ROOT, work / "cache-this"), rev: (other, work / "cache-other")}
         for name, (tree, cache) in sides.items():
             log(f"warming {name} (compiling into {cache}) ...")
@@ -101,8 +101,9 @@ def compare(rev: str, rounds: int = 5, characters=("leopard", "horse"), frames: 
             log(f"round {k + 1}/{rounds} done")
     finally:
         subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(other)],
-                       check=False)
+                       check=False, capture_output=True)
         shutil.rmtree(work, ignore_errors=True)
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "prune"], check=False)
     table = {}
     for fig, (_, kind) in runs["this"][0].items():
         if fig not in runs[rev][0]:
