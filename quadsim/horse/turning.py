@@ -49,8 +49,8 @@ from .bundles import FeetState, LeadState
 #: Time (s) over which a lifted foot's planted offset fades out.
 SWING_FADE = 0.2
 #: A swing foot up to this high (m) keeps the clip's clearance over ground rising above the
-#: body's plane; from :data:`SWING_HIGH` up it follows the pose (at least half its clearance
-#: over the ground).
+#: body's plane; from :data:`SWING_HIGH` up it follows the pose (at least 30 % of its
+#: clearance over the ground, :data:`~quadsim.horse.place_kernel.MIN_CLEARANCE_FRACTION`).
 SWING_LOW = 0.03
 SWING_HIGH = 0.12
 #: A foot this close to the ground in the clip (m) counts as planted.
