@@ -19,10 +19,10 @@ tables the measured contact times are 13 % (walk 1.3 m/s), 19 % (walk 1.7),
 6 % (trot 3.0), 20 % (trot 5.0) and 32 % (rack 5.0) under ``a v^b`` at the
 clips' speeds, and 17-18 % over it in the canter (5.0 and 7.0 m/s, whose drop
 of 12 % of the pelvis height sweeps the legs further than the law); the
-rack at 3.5 m/s and the amble at 2.9-3.5 m/s, at their 3-4 % drops, swing a
-hind leg through a stifle pop at each touchdown whose size beats with the
-frame grid (the amble's best cycles loop 12-15 deg apart and slide 4.6 mm,
-the rack's does not loop at all). :func:`quadsim.horse.speed.expand` can
+amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg through a stifle pop
+at each touchdown whose size beats with the frame grid (its best cycles loop
+12-15 deg apart and slide 4.6 mm), and the rack at 3.5 m/s, at its 4 % drop,
+has no cycle that loops. :func:`quadsim.horse.speed.expand` can
 stretch a step by a few per cent, not by a fifth, and the canter's 17 %
 would be a 16 % shorter step (``r`` 0.84: the re-posed fore legs tilt their
 hooves 11 mm into the ground).
