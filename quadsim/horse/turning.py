@@ -23,7 +23,8 @@ closed by the two-bone IK (:func:`quadsim.kinematics.chains.two_bone_row`). When
 the correction it had on its last planted frame (its plant minus where the pose
 put it) is faded out over the first :data:`SWING_FADE` seconds of its swing, so
 the foot does not jump; swing feet keep the clip's height above the (possibly
-sloped) ground -- except that a high foot over ground rising above the body's
+sloped) ground (a foot the pose puts higher is eased down onto it, its height
+keeping a continuous velocity) -- except that a high foot over ground rising above the body's
 plane (the level after a descent) follows the pose (:data:`SWING_LOW`,
 :data:`SWING_HIGH`): reaching up for it would swing the leg through straight,
 where the two-bone IK's bend flips side. The correction is the one of the
