@@ -171,9 +171,12 @@ def _classify(ctl, ph):
 
 
 def test_speed_ramp_gait_sequence_from_footfalls(horse, ctl):
-    times = tuple(float(t) for t in np.arange(0.0, 16.0, 0.5))
+    # a ramp slow enough that every gait is steady for over a second between its
+    # transitions (each 2.5 strides: with strides of Alexander's length the walk -> trot
+    # change takes 3 s, the trot -> canter one 2 s)
+    times = tuple(float(t) for t in np.arange(0.0, 20.0, 0.5))
     speeds = np.linspace(1.4, 11.5, len(times))
-    m = _run(horse, Script(times, tuple(Command(speed=float(v)) for v in speeds)), 17.0, ctl)
+    m = _run(horse, Script(times, tuple(Command(speed=float(v)) for v in speeds)), 21.0, ctl)
     assert np.isfinite(m.root_positions).all()
     labels = [str(g) for g in m.gaits]
     steady = [g for g in _runs(labels) if "->" not in g]

@@ -57,6 +57,28 @@ def test_leap_clears_its_height(db):
     assert feet[..., 1].min(axis=1).max() >= leap.height - 1e-3
 
 
+
+def test_the_leap_touchdowns_are_the_measured_ones(db):
+    """The leap's labels are its feet's measured touchdowns; the feet landing after the
+    stretched flight are labelled after it (the controller resumes the gallop from the
+    foot that landed last)."""
+    leap = db.by_gait("leap")[0]
+    m = leap.motion
+    feet = m.foot_positions()
+    con = foot_contacts(feet, m.fps)
+    iv = stance_intervals(con, m.fps, feet)
+    for i in range(4):
+        on = iv[i][np.isfinite(iv[i][:, 0]), 0] * m.fps
+        if leap.touchdown[i] == 0 and (len(on) == 0 or on.min() > 1.5):
+            assert con[0, i], i                      # standing at the first frame
+            continue
+        assert len(on) and np.abs(on - leap.touchdown[i]).min() <= 1.5, (i, on, leap.touchdown)
+    # the flight (the longest run of frames with no foot down) ends with the last landing
+    air = np.nonzero(~con.any(axis=1))[0]
+    runs = np.split(air, np.nonzero(np.diff(air) > 1)[0] + 1)
+    flight_end = max(runs, key=len)[-1]
+    assert leap.touchdown.max() >= flight_end, (leap.touchdown, flight_end)
+
 # ------------------------------------------------------------ bad manifests
 CLIP = "walk_1.3"
 GOOD = """

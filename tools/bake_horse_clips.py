@@ -11,22 +11,41 @@ on a ballistic arc, the legs' poses slerped through the stretched suspension.
 
 Bake-time gait overrides. The seed's clips were the data its Table 1 law
 ``Tc = a v^b`` was fitted to, so a clip should step as the law says at its own
-speed. With its default gait tables the procedural horse does not: near its
-standing height its legs sweep 0.79-0.92 m under the body in a stance
-(``D``), while the law wants 1.02-1.12 m in the walk, 1.02-1.16 m in the trot
-and 1.31-1.35 m in the rack -- the default clips' contact times were 22-28 %
-(walk), 10-21 % (trot) and 31-32 % (rack) under ``a v^b`` at their own speeds,
-and :func:`quadsim.horse.speed.expand` cannot stretch a leg that far either.
-The walk, trot and rack takes are therefore simulated with per-clip
-overrides of the horse's gait table (the ``[gaits.<name>]`` fields a
-character file may set, applied to a copy of the character here, never
-written back): ``drop`` lowers the body (fraction of the pelvis height, 1.52
-m: the root comes 10 cm lower in the walk, 5-11 cm in the trot, 15-16 cm in
-the rack than in the default clips) so the legs reach the sweep, and
-``stride`` (``lambda / h = stride Fr^0.3``) sets the stride so that the
-contact time is Hoyt's at that speed (measured within 3 %). The amble,
-canter and gallop keep the defaults (the canter meets the law as it is; the
-amble's and gallop's absolute law is beyond any leg, see quadsim.horse.speed).
+speed. The procedural horse sets its stride by Alexander's law
+(``lambda / h = stride Fr^0.3``) but no longer than its legs' stance sweep at
+the gait's body drop allows (``2 margin half_sweep(drop) / duty``), so a
+stance lasts about that sweep over the speed: with the horse's own gait
+tables the measured contact times are 13 % (walk 1.3 m/s), 19 % (walk 1.7),
+6 % (trot 3.0), 20 % (trot 5.0) and 32 % (rack 5.0) under ``a v^b`` at the
+clips' speeds, and 17-18 % over it in the canter (5.0 and 7.0 m/s, whose drop
+of 12 % of the pelvis height sweeps the legs further than the law); the
+amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg through a stifle pop
+at each touchdown whose size beats with the frame grid (its best cycles loop
+12-15 deg apart and slide 4.6 mm), and the rack at 3.5 m/s, at its 4 % drop,
+has no cycle that loops. :func:`quadsim.horse.speed.expand` can
+stretch a step by a few per cent, not by a fifth, and the canter's 17 %
+would be a 16 % shorter step (``r`` 0.84: the re-posed fore legs tilt their
+hooves 11 mm into the ground).
+The takes are therefore simulated with per-clip overrides of the horse's
+gait table (the ``[gaits.<name>]`` fields a character file may set, applied
+to a copy of the character here, never written back): ``drop`` (fraction of
+the pelvis height, 1.52 m) sets the legs' sweep -- 8-10 % in the walk, 10-13 %
+in the trot and 15-16 % in the rack lengthen it, 7 % in the amble keeps its
+hind legs in reach -- and ``stride`` then sets the stride (and with the duty
+the contact time) where the sweep no longer caps it, so that the contact time
+is Hoyt's at that speed (measured within 6 %: walk 1.00 and 1.03, trot 0.99
+and 1.02, rack 0.98 and 0.98, canter 0.99 and 1.06 of ``a v^b``). The canter
+keeps (nearly) the horse's own drop -- the gallop's, 12 %: a canter lowered
+less stands 5-9 cm above the gallop it changes into and leaps from -- and
+takes a stride short enough (``stride`` 1.8-1.85) that its stance under the
+horse's canter duty factor lasts the law's time (``lambda = Tc v / duty``,
+15 % under Alexander's stride); at 7 m/s a drop of 10 % keeps the leading
+fore leg's stance within 8 % of the others' (at 12 % it lifts 11 % early). The gallop keeps the defaults (its
+absolute law is beyond any leg, see quadsim.horse.speed; the amble's too).
+Every override was chosen among neighbouring ones (drop in 1 % steps, stride
+in 0.02-0.1 steps) as the one whose cut clip also loops within 3 deg and
+keeps its toe tips within 2.5 mm of the ground (several neighbours pin a
+foot into a 4-30 mm toe dip or slide).
 Each clip's manifest ``source`` names its overrides.
 
 Usage::
@@ -64,17 +83,20 @@ BAKE_ROOT_TOLERANCE = 0.05
 G = 9.81
 #: (gait in the procedural engine, clip gait, speed m/s, gait-table overrides):
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
-#: ``a v^b`` at its speed; the defaults (``characters/gaits.toml``, horse:
-#: walk drop 0.01 stride 2.3, trot 0.04 / 2.1, rack 0.04 / 1.8) step 20-30 % short.
+#: ``a v^b`` at its speed; the defaults (``characters/gaits.toml`` and
+#: ``horse.toml``: drop walk 0.03, amble 0.03, trot 0.05, rack 0.04, canter
+#: 0.12, gallop 0.12; stride 2.3, amble 2.0, rack 1.8, gallop 2.1) step 6-32 %
+#: short (walk, trot, rack) or 17 % long (canter).
 CLIPS = [
     ("walk", "walk", 1.3, {"drop": 0.08, "stride": 2.2}),
-    ("walk", "walk", 1.7, {"drop": 0.08}),
-    ("amble", "amble", 2.9, {}), ("amble", "amble", 3.5, {}),
-    ("trot", "trot", 3.0, {"drop": 0.08, "stride": 1.9}),
-    ("trot", "trot", 5.0, {"drop": 0.12, "stride": 1.8}),
+    ("walk", "walk", 1.7, {"drop": 0.10, "stride": 2.2}),
+    ("amble", "amble", 2.9, {"drop": 0.07}), ("amble", "amble", 3.5, {"drop": 0.07}),
+    ("trot", "trot", 3.0, {"drop": 0.10, "stride": 2.08}),
+    ("trot", "trot", 5.0, {"drop": 0.13, "stride": 2.05}),
     ("rack", "rack", 3.5, {"drop": 0.15, "stride": 2.3}),
     ("rack", "rack", 5.0, {"drop": 0.16, "stride": 2.2}),
-    ("canter", "canter", 5.0, {}), ("canter", "canter", 7.0, {}),
+    ("canter", "canter", 5.0, {"stride": 1.85}),
+    ("canter", "canter", 7.0, {"drop": 0.10, "stride": 1.8}),
     ("transverse_gallop", "gallop", 11.0, {}),
 ]
 #: Flight time added to the gallop's suspension to make the leap (s).
@@ -111,8 +133,11 @@ def _leap(gallop: Motion, speed: float, td: np.ndarray):
     tau = (np.arange(m) - a0) / fps
     arc = np.where((tau >= 0) & (tau <= tf), 0.5 * G * tau * (tf - tau), 0.0)
     root[:, 1] += arc
-    shift = np.zeros(4, dtype=int)
-    shift[:] = np.where(td > s1, k, 0)
+    # the feet landing at the suspension's end land k frames later; a touchdown is
+    # labelled at its nearest frame, which may be the last all-feet-off frame s1
+    # itself (a landing 0.4 frame after it), so every touchdown after the flight's
+    # first frame s0 is one of these (no foot lands inside the flight)
+    shift = np.where(td > s0, k, 0)
     motion = Motion(gallop.skeleton, fps, root, rot, foot_joints=gallop.foot_joints)
     feet = motion.foot_positions()
     on_air = (tau >= 0) & (tau <= tf)

@@ -477,7 +477,8 @@ class HorseDataController:
 
     def _start_transition(self, gait: str, speed: float) -> None:
         clip1, clip2 = self.clip, self.expanded(gait, speed)
-        tr = start_transition(self.character, clip1, clip2, self.phase, self.clip_gait, gait)
+        tr = start_transition(self.character, clip1, clip2, self.phase, self.clip_gait, gait,
+                              planted=self.planter.planted)
         cur_local, _ = self.player.local(clip1, self.phase)
         # continue from the current root: re-base the precomputed motion's root
         self._local_prev = tr.motion.root_positions[tr.f0] - (cur_local - self._local_prev)

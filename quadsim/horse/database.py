@@ -361,7 +361,7 @@ def pin_cycle(character: Character, cycle: Motion, speed: float, stance=None) ->
     ``stance`` (as from :func:`cycle_stance`, in frames) gives the contacts;
     by default they are measured.
     """
-    from .legs import pin_stance
+    from .legs import keep_foot_attitude, pin_stance
 
     n = len(cycle)
     three = looped(cycle, 3, speed)
@@ -370,7 +370,10 @@ def pin_cycle(character: Character, cycle: Motion, speed: float, stance=None) ->
     else:
         c = contacts_from_stance(stance, n, 3)
     pinned = pin_stance(character, three, c)
-    return Motion(cycle.skeleton, cycle.fps, cycle.root_positions, pinned.rotations[n:2 * n],
+    # the legs' IK tilts the hooves with the lower legs: keep their attitude, so a held
+    # hoof's toe tip stays where the cycle had it
+    rot = keep_foot_attitude(character, three, pinned.rotations)
+    return Motion(cycle.skeleton, cycle.fps, cycle.root_positions, rot[n:2 * n],
                   foot_joints=cycle.foot_joints)
 
 

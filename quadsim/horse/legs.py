@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..kinematics.chains import two_bone_rows
+from ..kinematics.rotations import quaternions_from_matrices
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from .place_kernel import place_feet_rows
@@ -320,4 +321,41 @@ def pin_stance(character: Character, motion: Motion, contacts, ground: float = 0
                   foot_joints=motion.foot_joints)
 
 
-__all__ = ["pin_stance", "place_feet", "reach_drop", "stance_targets", "two_bone"]
+
+def keep_foot_attitude(character: Character, source: Motion, rotations: np.ndarray) -> np.ndarray:
+    """Rotations with each foot bone turned back to its world attitude in ``source``.
+
+    :func:`place_feet` keeps the bones below each pair's middle joint at their
+    local angles, so when it swings a leg's pair the hoof (or paw) tilts with
+    the lower leg: a hind leg moved in by 7 % tips its hoof about 9 deg and the
+    toe tip 12 mm into the ground while the foot joint stays on its target.
+    This turns each foot joint (the hoof) so that its world rotation is the
+    one it had in ``source`` -- only the foot bone's end (the toe tip) moves;
+    every joint position is unchanged.
+
+    Parameters
+    ----------
+    character : Character
+    source : Motion
+        T frames: the motion before the edit (its feet's attitude is kept).
+    rotations : ndarray, shape (T, J, 4)
+        The edited local rotations (on ``source``'s skeleton and root).
+
+    Returns
+    -------
+    ndarray, shape (T, J, 4)
+        ``rotations`` with the four foot joints' local rotations replaced.
+    """
+    edited = Motion(source.skeleton, source.fps, source.root_positions, rotations,
+                    foot_joints=source.foot_joints)
+    want = source.world_rotations()
+    have = edited.world_rotations()
+    parents = source.skeleton.parents
+    out = np.array(rotations, dtype=float)
+    for leg in character.legs:
+        f = leg.foot
+        local = np.einsum("tji,tjk->tik", have[:, parents[f]], want[:, f])   # W_p^T W_f
+        out[:, f] = quaternions_from_matrices(local)
+    return out
+
+__all__ = ["keep_foot_attitude", "pin_stance", "place_feet", "reach_drop", "stance_targets", "two_bone"]

@@ -49,8 +49,17 @@ ON_FRAME = 1e-9
 WORK_MATRICES = 16
 #: Work points per leg :func:`place_row` needs (its leg scratch is (this, 4, 3)).
 LEG_VECTORS = 5
-#: A swing foot is at least this fraction of its clip clearance over the ground under it.
-MIN_CLEARANCE_FRACTION = 0.5
+#: A swing foot is at least this fraction of its clip clearance over the ground under it
+#: (a high foot over ground rising above the body's plane otherwise follows the pose: lifted
+#: from 46 % to 50 % of its clearance, a galloping fore hoof reaching forward jerked its
+#: elbow 30 % faster than the clip's).
+MIN_CLEARANCE_FRACTION = 0.3
+#: A swing foot the pose puts higher than its clip clearance over the ground is eased onto
+#: that height over this span (m): it rises at most half of it above, and its height keeps
+#: a continuous velocity where the pose crosses the clearance (a hard cap turned a hind
+#: leg's path there, after a descent onto the level, into a jerk of the hip: 1.9x the
+#: clip's angular acceleration in the canter).
+CAP_EASE = 0.04
 
 
 # ------------------------------------------------------------------ small pieces
@@ -411,7 +420,10 @@ def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contact
 def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
     """Each foot's target ``tgt`` (4, 3) by the :class:`~quadsim.horse.turning.FootPlanter`'s
     rules: a planted foot on its plant, a striking one planted on the ground, a lifted
-    one's correction fading, a swing foot over the ground (``feet`` updated)."""
+    one's correction fading, a swing foot over the ground -- at its clip clearance when
+    low, following the pose when high, eased onto the clearance from above
+    (:data:`CAP_EASE`), at least :data:`MIN_CLEARANCE_FRACTION` of it up (``feet``
+    updated)."""
     planted_, plant, offset, hold, air, drop = (feet.planted, feet.plant, feet.offset, feet.hold,
                                                 feet.air, feet.drop)
     if frame.first:
@@ -433,7 +445,11 @@ def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
         g = ground_height(ramps, tx, tz)
         over = g + clear
         w = 1.0 - _smoothstep((clear - low) / (high - low))
-        ty = max(min(over, F[i, 1] + w * (over - F[i, 1])), over - MIN_CLEARANCE_FRACTION * clear)
+        ty = F[i, 1] + w * (over - F[i, 1])
+        x = ty - over                          # above the clip's clearance: eased onto it
+        if x > 0.0:
+            ty = over + (x - x * x / (2.0 * CAP_EASE) if x < CAP_EASE else 0.5 * CAP_EASE)
+        ty = max(ty, g + MIN_CLEARANCE_FRACTION * clear)
         if contacts[i] and not planted:        # strike: the plant, on the ground
             plant[i, 0], plant[i, 1], plant[i, 2] = tx, g, tz
             drop[i] = ty - g
@@ -528,6 +544,6 @@ def _body_height(ramps, x, z, sy, cy, c, th, h):
     return ground_height(ramps, x + sy * k, z + cy * k) + h / math.cos(th) - c * math.sin(th)
 
 
-__all__ = ["CONTACT_SLACK", "LEG_VECTORS", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
+__all__ = ["CAP_EASE", "CONTACT_SLACK", "LEG_VECTORS", "MIN_CLEARANCE_FRACTION", "ON_FRAME", "WORK_MATRICES",
            "contact_rows", "ground_height", "ground_heights", "pack_contacts", "place_feet_rows", "place_row",
            "sample_row", "sample_rows", "slerp_into", "stance_row"]

@@ -328,8 +328,15 @@ class Transition:
 
 
 def start_transition(character: Character, clip1: Clip, clip2: Clip, phase: float,
-                     old_gait: str, gait: str) -> Transition:
-    """The transition from ``clip1`` at generic time ``phase`` (cycles) into ``clip2``."""
+                     old_gait: str, gait: str, planted=None) -> Transition:
+    """The transition from ``clip1`` at generic time ``phase`` (cycles) into ``clip2``.
+
+    ``planted`` (4,) bool, optional: the feet down on the frame played before (the
+    steady clip, sampled between its frames, may put a foot down a frame before the
+    transition's whole-frame copy of it does); such a foot stays down into the
+    transition's first contact when that begins within the short-lift gap
+    (:data:`MIN_AIR`), instead of lifting for a frame and striking again.
+    """
     ph = phase % 1.0
     # one cycle of M1 before, so the transition starts one frame after frame f0
     m = transition_motion(character, clip1, clip2, t_start=ph, before=1.0, after=1.0)
@@ -339,8 +346,10 @@ def start_transition(character: Character, clip1: Clip, clip2: Clip, phase: floa
     # on the ground: the foot phase, or the transition's foot at the ground; a lift of a
     # frame or two between two contacts (a leg switching clips) is no step
     held = m.foot_positions()[..., 1] <= GROUND_BAND
-    stance = np.ascontiguousarray(fill_gaps((m.extras["foot_phase"] != FLIGHT) | held,
-                                            max(1, round(MIN_AIR * m.fps))))
+    on = (m.extras["foot_phase"] != FLIGHT) | held
+    if planted is not None:
+        on[f0] |= np.asarray(planted, dtype=bool)   # the frame before the first played one
+    stance = np.ascontiguousarray(fill_gaps(on, max(1, round(MIN_AIR * m.fps))))
     # played through one cycle of M2 after the blend (root and feet settle)
     return Transition(m, f0, len(m) - 1, lt["end"] + (len(m) - 1 - f0 - lt["B"]) / clip2.frames,
                       clip2, gait, stance, f"{old_gait}->{gait}")

@@ -100,9 +100,10 @@ from ..skeleton.contacts import foot_contacts, stance_intervals
 from ..errors import InputError
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
-from .database import Clip, SpeedLaw, label_touchdowns, looped, pin_cycle, sample_motion
+from .database import (Clip, SpeedLaw, contacts_from_stance, label_touchdowns, looped,
+                       pin_cycle, sample_motion)
 from .root import clip_stance_cycles
-from .legs import place_feet
+from .legs import keep_foot_attitude, place_feet
 
 #: Table 1 of the seed: ``Tc = a v^b``, v in :data:`SPEED_UNIT`, Tc in seconds.
 HOYT = {
@@ -120,6 +121,9 @@ MPH = 0.44704  # m/s per mile per hour
 DEFAULT_EXPONENT = -0.7
 FORWARD = 2
 UP = 1
+#: A leg whose top-to-foot distance is within this fraction of its pair's full
+#: length keeps the pose's reach in :func:`expand` (see :func:`_keep_straight_reach`).
+STRAIGHT_SLACK = 0.03
 
 
 def contact_time(gait: str, speed) -> np.ndarray:
@@ -162,6 +166,31 @@ def clip_contact_time(clip: Clip) -> float:
     """Mean measured stance time of a looped clip's feet (s)."""
     m = looped(clip.motion, 3, clip.speed)
     return float(np.nanmean(measure_contact_time(m)))
+
+
+def _keep_straight_reach(character: Character, P: np.ndarray, tgt: np.ndarray) -> np.ndarray:
+    """Swing foot targets (T, 4, 3) at the pose's own reach where a leg is nearly straight.
+
+    A two-bone pair passing through straight (a fore leg reaching forward in its
+    swing) flips the side it bends to, so a target nearer than the pose's foot
+    bends it one way a frame and the other way the next: the elbow jumps (a
+    canter's fore leg moved in by 6 % turned at 3,200 deg/s where the clip's
+    turns at 1,300). Within :data:`STRAIGHT_SLACK` of full extension the target
+    keeps its direction from the pair's top joint and takes the pose's
+    distance, eased in by a smoothstep (:func:`expand` applies it to swinging feet
+    only: a planted foot keeps its place). ``P`` (T, J, 3): the pose's joint
+    positions (m), in the targets' frame.
+    """
+    legs = character.legs
+    A = P[:, [leg.chain[leg.ik_start] for leg in legs]]
+    B = P[:, [leg.chain[leg.ik_start + 1] for leg in legs]]
+    F = P[:, [leg.foot for leg in legs]]
+    full = np.linalg.norm(B - A, axis=-1) + np.linalg.norm(F - B, axis=-1)
+    d0 = np.linalg.norm(F - A, axis=-1)
+    d1 = np.maximum(np.linalg.norm(tgt - A, axis=-1), 1e-9)
+    x = np.clip((1.0 - d0 / full) / STRAIGHT_SLACK, 0.0, 1.0)
+    w = x * x * (3.0 - 2.0 * x)
+    return A + (tgt - A) * ((d0 + w * (d1 - d0)) / d1)[..., None]
 
 
 def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law",
@@ -223,8 +252,14 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
     Sf = S[..., FORWARD] + shift[..., FORWARD]
     tgt[..., FORWARD] = (feet[..., FORWARD] + shift[..., FORWARD] - Sf) * r + Sf
     tgt[..., UP] = ground + (feet[..., UP] - ground) * r
+    stance = [st * n for st in clip_stance_cycles(clip)]
+    swing = ~contacts_from_stance(stance, n, 1)
+    swing &= np.roll(swing, 1, axis=0) & np.roll(swing, -1, axis=0)   # a frame off contacts
+    tgt = np.where(swing[..., None], _keep_straight_reach(character, Wp + shift, tgt), tgt)
     moved = Motion(m.skeleton, m.fps, root, m.rotations, foot_joints=m.foot_joints)
-    rot = place_feet(character, moved, tgt)
+    # the hooves keep the clip's attitude (the IK alone tilts them with the lower leg: a
+    # trot's hind toe tips 12 mm into the ground with its step shortened by 7 %)
+    rot = keep_foot_attitude(character, moved, place_feet(character, moved, tgt))
     scaled = Motion(m.skeleton, m.fps, root, rot, foot_joints=m.foot_joints)
     # temporal: warp uniformly by k, resample the loop to a whole number of frames
     ext_root = np.concatenate([scaled.root_positions,

@@ -23,7 +23,8 @@ closed by the two-bone IK (:func:`quadsim.kinematics.chains.two_bone_row`). When
 the correction it had on its last planted frame (its plant minus where the pose
 put it) is faded out over the first :data:`SWING_FADE` seconds of its swing, so
 the foot does not jump; swing feet keep the clip's height above the (possibly
-sloped) ground -- except that a high foot over ground rising above the body's
+sloped) ground (a foot the pose puts higher is eased down onto it, its height
+keeping a continuous velocity) -- except that a high foot over ground rising above the body's
 plane (the level after a descent) follows the pose (:data:`SWING_LOW`,
 :data:`SWING_HIGH`): reaching up for it would swing the leg through straight,
 where the two-bone IK's bend flips side. The correction is the one of the
@@ -49,8 +50,8 @@ from .bundles import FeetState, LeadState
 #: Time (s) over which a lifted foot's planted offset fades out.
 SWING_FADE = 0.2
 #: A swing foot up to this high (m) keeps the clip's clearance over ground rising above the
-#: body's plane; from :data:`SWING_HIGH` up it follows the pose (at least half its clearance
-#: over the ground).
+#: body's plane; from :data:`SWING_HIGH` up it follows the pose (at least 30 % of its
+#: clearance over the ground, :data:`~quadsim.horse.place_kernel.MIN_CLEARANCE_FRACTION`).
 SWING_LOW = 0.03
 SWING_HIGH = 0.12
 #: A foot this close to the ground in the clip (m) counts as planted.
