@@ -19,6 +19,8 @@
                   [--gaits G[,G...]] [--turn-rates DEG_S[,DEG_S...]] [--fps N]
     quadsim retarget CHARACTER|CONFIG --robot URDF [--gait G] [--speed V] [--seconds S]
                      [--fps N] --out REF.json|REF.npz
+    quadsim clips-from TAKE.bvh [TAKE.bvh ...] --character CHARACTER.toml|ID --out DIR
+    quadsim sweep GRID.toml [--out DIR] [--workers N] [--scheduler ADDRESS] [--limit K]
     quadsim bench [--quick] [--max-n N] [--characters A,B] [--out FILE.json]
 
 Exit status 0 on success and 2 on bad input (a bad config, flag or file),
