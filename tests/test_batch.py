@@ -197,7 +197,8 @@ def test_a_large_herd_is_posed_on_threads_exactly_as_row_by_row():
     threaded = poser.pose_packed(packed)               # blocks on threads
     J = ch.skeleton.n_joints
     serial = (np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4)))
-    pose_kernel.pose_rows(np.ascontiguousarray(packed), poser.rig, *serial)
+    pose_kernel.pose_rows(np.ascontiguousarray(packed), poser.rig, *serial,
+                          pose_kernel.pose_scratch(poser.rig, n))
     for a, b in zip(threaded, serial):
         np.testing.assert_array_equal(a, b)
     assert np.ptp(np.linalg.norm(threaded[1][:, 0], axis=1)) > 1.0   # the herd spread out
@@ -259,7 +260,8 @@ def test_a_large_herd_posed_in_its_step_matches_posing_its_plans_afterwards():
     J = ch.skeleton.n_joints
     serial = (np.empty((n, J, 3, 3)), np.empty((n, J, 3)), np.empty((n, 4)))
     packed = pose_kernel.pack_plan(frame, len(ch.tail))
-    pose_kernel.pose_rows(packed, herd.kinds[0].poser.rig, *serial)
+    rig = herd.kinds[0].poser.rig
+    pose_kernel.pose_rows(packed, rig, *serial, pose_kernel.pose_scratch(rig, n))
     for key, want in zip(("local_rotations", "positions", "ik_error"), serial):
         np.testing.assert_array_equal(frame[key][0], want)
     assert np.ptp(frame["positions"][0][:, 0, 2]) > 0.3             # the herd spread out

@@ -168,6 +168,10 @@ def leg_geometry(character: Character, leg: LegSpec, *,
 
 
 _inner = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True)
+#: ... compiled without numba's reference counting: the IK allocates nothing
+#: (its work rows are the caller's), and threads posing blocks of rows would
+#: otherwise count references to the same legs' arrays, atomically, on every call.
+_inner_nrt_free = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=False)
 
 
 def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -200,7 +204,7 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 
 
 
-@_inner
+@_inner_nrt_free
 def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
     towards C = (``cd``, ``cf``), the target less the post bones, by the law
@@ -235,7 +239,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     return c0, s0, c1, s1, x, y, abs(r_true - r)
 
 
-@_inner
+@_inner_nrt_free
 def _direction(x, y, h):
     """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
     if h > 0.0:
@@ -244,15 +248,15 @@ def _direction(x, y, h):
     return math.cos(a), math.sin(a)
 
 
-@_inner
-def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
+@_inner_nrt_free
+def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
     """The legs' IK, compiled: each leg of ``legs`` (:func:`pack_legs`) in
     rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
     and position ``positions[t, p]`` (m), to the target, swing fold and toe
     pitch in the columns ``cols = [target, fold, toe, heading, bend]`` (int array)
     of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``):
     writes the chains' local rotations ``local[t, j]`` and the misses
-    ``err[t, i]`` (m). If ``heading >= 0`` each foot keeps its world yaw
+    ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If ``heading >= 0`` each foot keeps its world yaw
     at the body's heading (the fore feet's plus the spine's yaw ``bend``)
     whatever the yaw of its leg's plane (the girdles' sway): a foot turns
     about the vertical through its joint, the foot joint's local rotation
@@ -266,10 +270,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err):
     """
     leg_int, leg_top, leg_bones, leg_scal = legs
     FEET, FOLD, TOE, HEAD, BEND = cols[0], cols[1], cols[2], cols[3], cols[4]
-    n_max = leg_bones.shape[2]
-    phi = np.empty(n_max)
-    cphi = np.empty(n_max)
-    sphi = np.empty(n_max)
+    phi, cphi, sphi = work[0], work[1], work[2]
     for t in range(a, b):
         g = t - a
         for i in range(leg_int.shape[0]):
@@ -462,6 +463,8 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
 
 @njit(cache=True)
 def _solve_rows(plan, legs, G, P, local, err):
-    leg_rows(plan, np.array([0, 3, 4, -1, -1]), np.int64(0), plan.shape[0], legs, G, P, local, err)
+    work = np.empty((3, legs[2].shape[2]))
+    leg_rows(plan, np.array([0, 3, 4, -1, -1]), np.int64(0), plan.shape[0], legs, G, P, local, err,
+             work)
 
 

@@ -53,7 +53,7 @@ from quadsim.locomotion.plan_kernels import (
     run_plan,
     step_constants,
 )
-from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns
+from quadsim.locomotion.pose_kernel import PARALLEL_ROWS, pack_plan, plan_columns, pose_scratch
 from quadsim.locomotion.tables import character_plan, stack_states
 from quadsim.locomotion.transition import gait_tables
 from quadsim.skeleton.character import Character
@@ -288,7 +288,7 @@ class BatchController:
             packed, entry, rig = out.packed, poser.entry, poser.rig
 
             def pose_block(a, e):
-                entry(packed[a:e], rig, local[a:e], P[a:e], err[a:e])
+                entry(packed[a:e], rig, local[a:e], P[a:e], err[a:e], pose_scratch(rig, e - a))
 
             frame, _ = self._advance(speed, turn, head, gait, dt, columns, out=out,
                                      then=pose_block)

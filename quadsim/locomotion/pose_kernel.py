@@ -37,10 +37,10 @@ import numpy as np
 from numba import njit
 
 from quadsim.kinematics.ik import leg_rows, pack_legs
-from quadsim.locomotion.rowmath import inner
+from quadsim.locomotion.rowmath import plan_inner
 
-__all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "nod_of", "pack_legs", "pack_plan",
-           "plan_columns", "pose_rows"]
+__all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "PoseScratch", "layout", "nod_of", "pack_legs",
+           "pack_plan", "plan_columns", "pose_rig", "pose_rows", "pose_scratch"]
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
 ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
@@ -100,7 +100,7 @@ def _yaw_pitch(local, t, j, ca, sa, cb, sb):
     local[t, j, 2, 2] = ca * cb
 
 
-#: How :func:`_fk_joint` multiplies by a joint's local rotation (``_layout``).
+#: How :func:`_fk_joint` multiplies by a joint's local rotation (:func:`layout`).
 FK_FULL, FK_ABOUT_X, FK_IDENTITY = 0, 1, 2
 
 
@@ -153,9 +153,10 @@ def _fk_joint(t, g, j, p, how, frame, local, offsets, G, positions):
     G[g, j, 2, 2] = a20 * l02 + a21 * l12 + a22 * l22
 
 
-@inner
-def _layout(parents, spine, tail, neck, trunk, leg_int):
-    """What :func:`pose_rows` works out once per call from the skeleton.
+@njit(cache=True)
+def layout(parents, spine, tail, neck, trunk, leg_int):
+    """What :func:`pose_rows` needs of the skeleton, worked out once per character
+    (:class:`PoseRig`'s ``how``, ``frame``, ``fixed`` and ``rest``).
 
     Returns ``how`` (J,), each joint's :func:`_fk_joint` product (the leg
     joints below the top turn about +X, the joints no stage sets keep the
@@ -215,7 +216,7 @@ def _layout(parents, spine, tail, neck, trunk, leg_int):
     return how, frame, fixed, rest
 
 
-@inner
+@plan_inner
 def _trunk_rows(plan, a, b, parents, offsets, spine, tail, trunk, how, fixed, local,
                 positions, G):
     """Rows ``a`` to ``b`` of :func:`pose_rows` up to the legs: the pelvis,
@@ -284,7 +285,7 @@ def nod_of(fold, t, amplitude):
     return 0.5 * amplitude * (fore - hind)
 
 
-@inner
+@plan_inner
 def _neck_rows(plan, a, b, neck, thorax, nod, local, G):
     """The neck of rows ``a`` to ``b``: the head kept level in space (the
     thorax's pitch undone), dipped by its nod (:func:`nod_of`) and turned to
@@ -303,7 +304,7 @@ def _neck_rows(plan, a, b, neck, thorax, nod, local, G):
             _yaw_pitch(local, t, neck[k], ca, sa, cb, sb)
 
 
-@inner
+@plan_inner
 def _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions):
     """Forward kinematics of the joints ``rest`` in rows ``a`` to ``b``, from
     the trunk's world frames ``G[t - a]``."""
@@ -340,6 +341,10 @@ class PoseRig(NamedTuple):
         The legs (:func:`pack_legs`).
     nod : float
         The head's nod (rad, :func:`nod_of`); 0 keeps the head level.
+    how, frame, fixed, rest : ndarray
+        The skeleton's layout (:func:`layout`).
+    cols : ndarray of int, shape (5,)
+        The packed plan's columns the legs' IK reads (feet, fold, toe, heading, bend).
     """
 
     parents: np.ndarray
@@ -354,10 +359,50 @@ class PoseRig(NamedTuple):
     leg_bones: np.ndarray
     leg_scal: np.ndarray
     nod: float
+    how: np.ndarray
+    frame: np.ndarray
+    fixed: np.ndarray
+    rest: np.ndarray
+    cols: np.ndarray
 
 
-@njit(cache=True, nogil=True)
-def pose_rows(plan, rig, local, positions, err):
+def pose_rig(parents, offsets, spine, tail, neck, trunk, thorax: int, legs, nod: float) -> PoseRig:
+    """A :class:`PoseRig` of fresh writable arrays (one compiled signature for every
+    character), with the skeleton's :func:`layout`; ``legs`` is :func:`pack_legs`'s."""
+    def ints(x):
+        return np.array(x, dtype=np.int64)
+
+    parents, spine, tail, neck, trunk = (ints(x) for x in (parents, spine, tail, neck, trunk))
+    legs = tuple(np.array(x) for x in legs)
+    how, frame, fixed, rest = layout(parents, spine, tail, neck, trunk, legs[0])
+    return PoseRig(parents, np.array(offsets, dtype=float), spine, tail, neck, trunk,
+                   int(thorax), *legs, float(nod), how, frame, fixed, rest,
+                   ints([FEET, FOLD, TOE, HEADING, BEND_YAW]))
+
+
+class PoseScratch(NamedTuple):
+    """:func:`pose_rows`'s work space (any values; each concurrent call its own).
+
+    Attributes
+    ----------
+    G : ndarray, shape (min(T, CHUNK), J, 3, 3)
+        A block's world frames.
+    legs : ndarray, shape (3, n_max)
+        The legs' IK's bone angles, their cosines and sines.
+    """
+
+    G: np.ndarray
+    legs: np.ndarray
+
+
+def pose_scratch(rig: PoseRig, rows: int) -> PoseScratch:
+    """A :class:`PoseScratch` for :func:`pose_rows` of ``rows`` rows of ``rig``."""
+    return PoseScratch(np.empty((min(max(rows, 1), CHUNK), rig.parents.shape[0], 3, 3)),
+                       np.empty((3, rig.leg_bones.shape[2])))
+
+
+@njit(cache=True, nogil=True, _nrt=False)
+def pose_rows(plan, rig, local, positions, err, work):
     """Pose T packed plans of one character (compiled).
 
     Parameters
@@ -371,9 +416,16 @@ def pose_rows(plan, rig, local, positions, err):
         Output: world joint positions (m).
     err : ndarray, shape (T, 4)
         Output: distance from each foot target to the foot reached (m).
+    work : PoseScratch
+        Work space (:func:`pose_scratch`), not shared with a concurrent call.
 
     Notes
     -----
+    Compiled without numba's reference counting, like the plan: the posing
+    borrows its caller's arrays and allocates nothing, and threads posing
+    blocks of rows at once no longer count references to the same rig's
+    arrays (atomically, on every helper's call).
+
     The rows go through in blocks of :data:`CHUNK`, each through three
     stages: :func:`_trunk_rows` (spine, tail, trunk forward kinematics),
     :func:`_neck_rows` (the neck), :func:`_leg_rows` (leg IK) and :func:`_rest_rows` (forward
@@ -386,17 +438,16 @@ def pose_rows(plan, rig, local, positions, err):
     leg_int, leg_top, leg_bones, leg_scal = rig[7:11]
     nod = rig.nod
     legs = (leg_int, leg_top, leg_bones, leg_scal)
-    # an array: solve_leg's call shares the compiled IK
-    cols = np.array([FEET, FOLD, TOE, HEADING, BEND_YAW])
+    cols = rig.cols  # an array: solve_leg's call shares the compiled IK
+    how, frame, fixed, rest = rig.how, rig.frame, rig.fixed, rig.rest
     T = plan.shape[0]
-    G = np.empty((min(max(T, 1), CHUNK), parents.shape[0], 3, 3))
-    how, frame, fixed, rest = _layout(parents, spine, tail, neck, trunk, leg_int)
+    G = work.G
     for a in range(0, T, CHUNK):
         b = min(T, a + CHUNK)
         _trunk_rows(plan, a, b, parents, offsets, spine, tail, trunk, how, fixed, local,
                     positions, G)
         _neck_rows(plan, a, b, neck, thorax, nod, local, G)
-        leg_rows(plan, cols, a, b, legs, G, positions, local, err)
+        leg_rows(plan, cols, a, b, legs, G, positions, local, err, work.legs)
         _rest_rows(a, b, parents, offsets, how, frame, rest, local, G, positions)
 
 

@@ -22,10 +22,13 @@ from quadsim.locomotion.blocks import FixedEntry, run_blocks
 from quadsim.locomotion.pose_kernel import (
     PARALLEL_ROWS,
     PoseRig,
+    PoseScratch,
     pack_legs,
     pack_plan,
     plan_columns,
+    pose_rig,
     pose_rows,
+    pose_scratch,
 )
 from quadsim.skeleton.character import Character
 
@@ -125,9 +128,9 @@ class Poser:
         rig, kernel = self.rig, self.entry
         if T >= PARALLEL_ROWS:  # blocks of rows on threads: the same result
             run_blocks(lambda a, e: kernel(rows[a:e], rig, local[a:e], positions[a:e],
-                                           err[a:e]), T)
+                                           err[a:e], pose_scratch(rig, e - a)), T)
         else:
-            kernel(rows, rig, local, positions, err)
+            kernel(rows, rig, local, positions, err, pose_scratch(rig, T))
         return local, positions, err
 
     def pose_row(self, row: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -154,7 +157,7 @@ class Poser:
         J = self._n_joints
         local, positions, err = np.empty((J, 3, 3)), np.empty((J, 3)), np.empty(4)
         self.entry(row, self.rig, local.reshape(1, J, 3, 3), positions.reshape(1, J, 3),
-                    err.reshape(1, 4))
+                   err.reshape(1, 4), self._row_scratch)
         return local, positions, err
 
     @cached_property
@@ -162,10 +165,16 @@ class Poser:
         return self.character.skeleton.n_joints
 
     @cached_property
+    def _row_scratch(self) -> PoseScratch:
+        """:meth:`pose_row`'s work space (one frame; the interactive step is one thread's)."""
+        return pose_scratch(self.rig, 1)
+
+    @cached_property
     def entry(self) -> FixedEntry:
         """:func:`pose_rows` called for this character's arrays, skipping the dispatch:
-        ``entry(rows, rig, local, positions, err)`` with :attr:`rig` and the arrays of
-        :meth:`pose_packed` (writable, C-contiguous, float64; not checked)."""
+        ``entry(rows, rig, local, positions, err, scratch)`` with :attr:`rig`, the arrays
+        of :meth:`pose_packed` (writable, C-contiguous, float64; not checked) and a
+        :func:`~quadsim.locomotion.pose_kernel.pose_scratch` of the call's own."""
         return FixedEntry(pose_rows)
 
     @cached_property
@@ -175,10 +184,6 @@ class Poser:
         sk = ch.skeleton
         trunk = self.trunk if self.trunk is not None else np.arange(sk.n_joints)
 
-        def ints(x):  # fresh writable copies: one compiled signature for every character
-            return np.array(x, dtype=np.int64)
-
         nod = math.radians(float(ch.locomotion.get("head_nod_deg", 0.0)))
-        return PoseRig(ints(sk.parents), np.array(sk.offsets, dtype=float),
-                       ints(ch.spine[1:]), ints(ch.tail), ints(ch.neck), ints(trunk),
-                       int(ch.spine[-1]), *pack_legs(self.legs), nod)
+        return pose_rig(sk.parents, sk.offsets, ch.spine[1:], ch.tail, ch.neck, trunk,
+                        int(ch.spine[-1]), pack_legs(self.legs), nod)
