@@ -76,7 +76,8 @@ def retarget_command(args) -> int:
     gaits = ", ".join(dict.fromkeys(str(g) for g in ref.gaits if "->" not in str(g))) or "none"
     print(f"wrote {out}: {ref.n_frames} frames at {ref.fps:g} fps, {character.id} on "
           f"{robot.urdf.label} (hips {i['robot_hip_height']:.3f} m, scale {s:.3f}, stride "
-          f"{i['stride_factor']:.0%}), {i['robot_speed']:.2f} m/s, gaits: {gaits}; "
+          f"{i['stride_factor']:.0%}), {i['robot_speed']:.2f} m/s on average (with the start "
+          f"from standing), gaits: {gaits}; "
           f"{len(ref.joint_names)} joints: {', '.join(ref.joint_names)}")
     return 0
 
