@@ -18,11 +18,9 @@ alone; ``.bvh`` and ``.glb`` come from :func:`quadsim.save`.
 
 from __future__ import annotations
 
-import io
 import math
 import tempfile
 import warnings
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -167,16 +165,9 @@ def npz_bytes(motion, contacts=None) -> bytes:
     stored, every entry dated :data:`ZIP_DATE`): the same bytes for the same motion.
     ``contacts``: the motion's measured contacts when already found."""
     from quadsim.io.npz import npz_arrays
+    from quadsim.io.stored_npz import stored_npz_bytes
 
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
-        for key, value in npz_arrays(motion, contacts).items():
-            info = zipfile.ZipInfo(f"{key}.npy", date_time=ZIP_DATE)
-            info.create_system = 3
-            info.external_attr = 0o644 << 16
-            with z.open(info, "w", force_zip64=True) as f:
-                np.lib.format.write_array(f, np.asanyarray(value), allow_pickle=False)
-    return buf.getvalue()
+    return stored_npz_bytes(npz_arrays(motion, contacts), ZIP_DATE)
 
 
 def clip_bytes(motion, fmt: str, character=None) -> bytes:
