@@ -13,9 +13,10 @@ shared machine):
   (character-frames per second): the reference;
 - ``stages``: per clip, in this process, the sweep's steps one by one --
   ``generate`` (batched, the motions built), ``measure`` (the figures of
-  ``quadsim metrics``), ``encode`` (the ``.npz`` bytes), ``publish`` (the
-  file written atomically and flushed to the disk, its manifest line
-  appended) -- and each one's share;
+  ``quadsim metrics``, the joints' world positions, contacts and angular
+  velocities found once for all of them and for the file), ``encode`` (the
+  ``.npz`` bytes), ``publish`` (the file written atomically, its manifest
+  line appended) -- and each one's share;
 - ``end_to_end``: :func:`quadsim.dataset.run_sweep` into an empty folder
   with 1, 2, the CPU count and twice the CPU count of local worker
   processes (clips/s, character-frames/s), with ``overhead_ms_per_clip``:
@@ -112,7 +113,7 @@ def in_memory(clips, repeats: int) -> dict:
 
 def stages(clips, repeats: int) -> dict:
     """Per-clip milliseconds of each step of making a clip, in this process."""
-    from quadsim.dataset.clips import generate, measure, npz_bytes
+    from quadsim.dataset.clips import generate, measure_clip, npz_bytes
     from quadsim.dataset.manifest import publish
 
     def once(folder: Path) -> dict:
@@ -132,11 +133,11 @@ def stages(clips, repeats: int) -> dict:
             add("generate", c0, clock())
             for c, m in zip(group, motions):
                 c0 = clock()
-                figures = measure(m)
+                measured = measure_clip(m)
                 c1 = clock()
-                data = npz_bytes(m)
+                data = npz_bytes(m, measured.contacts)
                 c2 = clock()
-                publish(folder, {"id": c.id, "path": c.path, "metrics": figures}, data)
+                publish(folder, {"id": c.id, "path": c.path, "metrics": measured.report}, data)
                 c3 = clock()
                 add("measure", c0, c1)
                 add("encode", c1, c2)

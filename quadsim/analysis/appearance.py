@@ -125,16 +125,35 @@ def _per_stride_range(x: np.ndarray, td: np.ndarray) -> np.ndarray:
     return hi - lo
 
 
-def _median(x) -> float | None:
+def _finite_sorted(x) -> np.ndarray:
     x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.median(x)) if x.size else None
+    return np.sort(x[np.isfinite(x)])
+
+
+def _median(x) -> float | None:
+    """``np.median`` of the finite values (None without any), from one sort."""
+    s = _finite_sorted(x)
+    n = s.size
+    if not n:
+        return None
+    k = n // 2
+    return float(s[k]) if n % 2 else float((s[k - 1] + s[k]) / 2.0)
 
 
 def _pct(x, q) -> float | None:
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.percentile(x, q)) if x.size else None
+    """``np.percentile(x, q)`` (linear) of the finite values (None without any), from one
+    sort, with numpy's interpolation step for step."""
+    s = _finite_sorted(x)
+    n = s.size
+    if not n:
+        return None
+    v = (n - 1) * (q / 100.0)
+    i = math.floor(v)
+    j = min(i + 1, n - 1)
+    g = v - i
+    a, b = float(s[i]), float(s[j])
+    d = b - a
+    return b - d * (1.0 - g) if g >= 0.5 else a + d * g
 
 
 _HINGES: dict[tuple[int, int], tuple] = {}  # each (skeleton, anatomy)'s hinges, found once
