@@ -208,9 +208,11 @@ def foot_contacts(feet, fps, *, height: float | None = None, speed: float | None
     T = len(f)
     if T == 0:
         return np.zeros((0, 4), dtype=bool)
-    h0, v0 = default_contact_thresholds(f)
-    height = h0 if height is None else float(height)
-    speed = v0 if speed is None else float(speed)
+    if height is None or speed is None:
+        h0, v0 = default_contact_thresholds(f)
+        height = h0 if height is None else height
+        speed = v0 if speed is None else speed
+    height, speed = float(height), float(speed)
     low = f[..., Y] - ground <= height
     step = np.linalg.norm(np.diff(_horizontal(f), axis=0), axis=-1) * fps  # (T-1, 4)
     inf = np.full((1, 4), np.inf)
