@@ -237,11 +237,12 @@ def files_only(g, workers: int, repeats: int) -> dict:
     from concurrent.futures import ProcessPoolExecutor
     from functools import partial
 
-    from quadsim.dataset.sweep import tasks_of
+    from quadsim.dataset.sweep import _worker_init, cpu_count, tasks_of
 
     clips = g.clips()
     frames = sum(c.frames for c in clips)
     tasks = tasks_of(clips, workers)
+    threads = max(1, cpu_count() // workers)  # as the sweep's workers
     ctx = multiprocessing.get_context("fork")
     runs = []
     for _ in range(repeats):
@@ -249,7 +250,8 @@ def files_only(g, workers: int, repeats: int) -> dict:
         try:
             (tmp / "clips").mkdir()
             t0 = time.perf_counter()
-            with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init,
+                                     initargs=(threads,)) as pool:
                 assert sum(pool.map(partial(_files_only, out=str(tmp)), tasks)) == len(clips)
             runs.append(time.perf_counter() - t0)
         finally:
