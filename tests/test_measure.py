@@ -96,3 +96,19 @@ def test_a_motion_without_foot_joints_is_refused(motions):
     m = motions["leopard-walk-0"]
     with pytest.raises(ValueError, match="foot joints"):
         measure_motion(replace(m, foot_joints=None))
+
+
+def test_each_foots_contacts_and_touchdowns_are_those_found_for_it_alone(motions):
+    """The four feet are measured in one pass: no foot's runs reach into the next's."""
+    from quadsim.analysis.metrics import stance_intervals
+
+    for name, m in motions.items():
+        feet = m.foot_positions()
+        both = foot_contacts(feet, m.fps, height=0.012, speed=0.6)
+        times = stance_intervals(both, m.fps, feet, tolerance=0.0012)
+        for i in range(4):
+            alone = np.repeat(feet[:, i:i + 1], 4, axis=1)  # this foot as all four
+            c = foot_contacts(alone, m.fps, height=0.012, speed=0.6)
+            assert np.array_equal(c[:, 0], both[:, i]), (name, i)
+            t = stance_intervals(c, m.fps, alone, tolerance=0.0012)[0]
+            assert np.array_equal(t, times[i], equal_nan=True), (name, i)
