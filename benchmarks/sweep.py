@@ -13,9 +13,10 @@ shared machine):
   (character-frames per second): the reference;
 - ``stages``: per clip, in this process, the sweep's steps one by one --
   ``generate`` (batched, the motions built), ``measure`` (the figures of
-  ``quadsim metrics``), ``encode`` (the ``.npz`` bytes), ``publish`` (the
-  file written atomically and flushed to the disk, its manifest line
-  appended) -- and each one's share;
+  ``quadsim metrics``, the joints' world positions, contacts and angular
+  velocities found once for all of them and for the file), ``encode`` (the
+  ``.npz`` bytes), ``publish`` (the file written atomically, its manifest
+  line appended) -- and each one's share;
 - ``end_to_end``: :func:`quadsim.dataset.run_sweep` into an empty folder
   with 1, 2, the CPU count and twice the CPU count of local worker
   processes (clips/s, character-frames/s), with ``overhead_ms_per_clip``:
@@ -32,7 +33,10 @@ shared machine):
 A full run writes ``benchmarks/results/sweep-<machine>.json``; ``--quick``
 (one seed, one repeat) writes ``out/bench-sweep-quick.json`` unless
 ``--out`` says otherwise. A busy machine shows in the numbers: the JSON
-keeps every repeat and the load average.
+keeps every repeat, the load average and ``free_cores_before_after``, the CPUs
+two busy-loop processes got just before and just after the end-to-end runs
+(less than 2 when other jobs hold a core, whose processes may not even be
+visible from here).
 """
 
 from __future__ import annotations
@@ -112,7 +116,7 @@ def in_memory(clips, repeats: int) -> dict:
 
 def stages(clips, repeats: int) -> dict:
     """Per-clip milliseconds of each step of making a clip, in this process."""
-    from quadsim.dataset.clips import generate, measure, npz_bytes
+    from quadsim.dataset.clips import generate, measure_clip, npz_bytes
     from quadsim.dataset.manifest import publish
 
     def once(folder: Path) -> dict:
@@ -132,11 +136,11 @@ def stages(clips, repeats: int) -> dict:
             add("generate", c0, clock())
             for c, m in zip(group, motions):
                 c0 = clock()
-                figures = measure(m)
+                measured = measure_clip(m)
                 c1 = clock()
-                data = npz_bytes(m)
+                data = npz_bytes(m, measured.contacts)
                 c2 = clock()
-                publish(folder, {"id": c.id, "path": c.path, "metrics": figures}, data)
+                publish(folder, {"id": c.id, "path": c.path, "metrics": measured.report}, data)
                 c3 = clock()
                 add("measure", c0, c1)
                 add("encode", c1, c2)
@@ -158,6 +162,27 @@ def stages(clips, repeats: int) -> dict:
     return {"ms_per_clip": ms, "total_ms_per_clip": total, "cpu_ms_per_clip": cpu,
             "total_cpu_ms_per_clip": total_cpu,
             "share": {k: v / total_cpu for k, v in cpu.items()}, "repeats": runs}
+
+
+def _spin(seconds: float) -> float:
+    """CPU seconds a busy loop gets in ``seconds`` of wall-clock time (a worker process)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    x = 0
+    while time.perf_counter() - t0 < seconds:
+        x += 1
+    return time.process_time() - c0
+
+
+def free_cores(n: int, seconds: float = 1.0) -> float:
+    """How many CPUs this process's work gets now: ``n`` busy-loop processes for
+    ``seconds``, their CPU time over the wall-clock time. Other jobs on the machine
+    show as less than ``n`` (their processes may be out of sight, in other containers)."""
+    import multiprocessing
+
+    ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
+                                      else None)
+    with ctx.Pool(n) as pool:
+        return sum(pool.map(_spin, [seconds] * n)) / seconds
 
 
 def _cpu() -> float:
@@ -212,11 +237,12 @@ def files_only(g, workers: int, repeats: int) -> dict:
     from concurrent.futures import ProcessPoolExecutor
     from functools import partial
 
-    from quadsim.dataset.sweep import tasks_of
+    from quadsim.dataset.sweep import _worker_init, cpu_count, tasks_of
 
     clips = g.clips()
     frames = sum(c.frames for c in clips)
     tasks = tasks_of(clips, workers)
+    threads = max(1, cpu_count() // workers)  # as the sweep's workers
     ctx = multiprocessing.get_context("fork")
     runs = []
     for _ in range(repeats):
@@ -224,7 +250,8 @@ def files_only(g, workers: int, repeats: int) -> dict:
         try:
             (tmp / "clips").mkdir()
             t0 = time.perf_counter()
-            with ProcessPoolExecutor(workers, mp_context=ctx) as pool:
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_worker_init,
+                                     initargs=(threads,)) as pool:
                 assert sum(pool.map(partial(_files_only, out=str(tmp)), tasks)) == len(clips)
             runs.append(time.perf_counter() - t0)
         finally:
@@ -275,7 +302,9 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
                       for k, v in st["cpu_ms_per_clip"].items())
     log(f"  per clip, one process, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
         f"({st['total_ms_per_clip']:.2f} ms wall-clock)")
+    free = [free_cores(2)]
     e2e = end_to_end(g, workers, repeats)
+    free.append(free_cores(2))
     for n, r in e2e.items():
         log(f"  end to end, {n} worker{'s' if n != '1' else ''}: {r['clips_per_s']:.1f} clips/s, "
             f"{r['frames_per_s']:,.0f} character-frames/s, {r['ms_per_clip']:.2f} ms a clip "
@@ -289,12 +318,15 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
     ratio = e2e["2"]["frames_per_s"] / mem["frames_per_s"]
     log(f"  sweep overhead on one worker: {overhead:.2f} ms of CPU a clip; a 2-clip sweep "
         f"on 2 workers: {start:.2f} s")
+    log(f"  CPUs free for 2 busy processes, before and after the end-to-end runs: "
+        f"{free[0]:.2f}, {free[1]:.2f} (of 2)")
     log(f"  2 workers end to end / BatchController in memory: {ratio:.2f} "
         f"(target >= {TARGET_RATIO}: {'met' if ratio >= TARGET_RATIO else 'NOT met'})")
     return {"machine": machine_info(), "load_average": list(os.getloadavg()),
             "clips": len(clips), "seeds": seeds, "repeats": repeats,
             "in_memory": mem, "stages": st, "end_to_end": e2e, "files_only": files,
             "overhead_ms_per_clip": overhead, "startup_s": start, "ratio_2_workers": ratio,
+            "free_cores_before_after": free,
             "target_ratio": TARGET_RATIO}
 
 

@@ -22,5 +22,7 @@ def test_the_sweep_benchmark_reports_throughputs_stages_and_the_ratio(tmp_path):
     for v in r["end_to_end"].values():
         assert v["frames_per_s"] > 0 and v["clips_per_s"] > 0
     assert r["files_only"]["frames_per_s"] > 0 and r["startup_s"] > 0
+    assert len(r["free_cores_before_after"]) == 2
+    assert all(0 < c <= 2.2 for c in r["free_cores_before_after"])
     assert math.isclose(r["ratio_2_workers"],
                         r["end_to_end"]["2"]["frames_per_s"] / r["in_memory"]["frames_per_s"])

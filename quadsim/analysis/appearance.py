@@ -42,7 +42,8 @@ from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import foot_contacts
 
-__all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "STRAIGHT_DEG", "appearance_report",
+__all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "STRAIGHT_DEG", "appearance_from_arrays",
+           "appearance_report",
            "format_appearance", "spine_flexion", "toe_positions", "trunk_pitch"]
 
 #: Alexander's dynamic-similarity stride law ``lambda / h = a Fr^b`` (1976).
@@ -115,24 +116,55 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def _per_stride_range(x: np.ndarray, bounds: list[tuple[int, int]]) -> np.ndarray:
-    return np.array([np.ptp(x[s:e + 1]) for s, e in bounds]) if bounds else np.array([])
+def _per_stride_range(x: np.ndarray, td: np.ndarray) -> np.ndarray:
+    """Range (max - min) of ``x`` over each stride ``td[k]..td[k + 1]`` (both ends in)."""
+    if len(td) < 2:
+        return np.array([])
+    hi = np.maximum(np.maximum.reduceat(x, td)[:-1], x[td[1:]])
+    lo = np.minimum(np.minimum.reduceat(x, td)[:-1], x[td[1:]])
+    return hi - lo
+
+
+def _finite_sorted(x) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    return np.sort(x[np.isfinite(x)])
 
 
 def _median(x) -> float | None:
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.median(x)) if x.size else None
+    """``np.median`` of the finite values (None without any), from one sort."""
+    s = _finite_sorted(x)
+    n = s.size
+    if not n:
+        return None
+    k = n // 2
+    return float(s[k]) if n % 2 else float((s[k - 1] + s[k]) / 2.0)
 
 
 def _pct(x, q) -> float | None:
-    x = np.asarray(x, dtype=float)
-    x = x[np.isfinite(x)]
-    return float(np.percentile(x, q)) if x.size else None
+    """``np.percentile(x, q)`` (linear) of the finite values (None without any), from one
+    sort, with numpy's interpolation step for step."""
+    s = _finite_sorted(x)
+    n = s.size
+    if not n:
+        return None
+    v = (n - 1) * (q / 100.0)
+    i = math.floor(v)
+    j = min(i + 1, n - 1)
+    g = v - i
+    a, b = float(s[i]), float(s[j])
+    d = b - a
+    return b - d * (1.0 - g) if g >= 0.5 else a + d * g
+
+
+_HINGES: dict[tuple[int, int], tuple] = {}  # each (skeleton, anatomy)'s hinges, found once
 
 
 def _hinges(motion, a: Anatomy) -> list[tuple[int, int, int, int]]:
     """(leg, parent, joint, child) of every leg joint bent at rest."""
+    key = (id(motion.skeleton), id(a))
+    hit = _HINGES.get(key)
+    if hit is not None and hit[0] is motion.skeleton and hit[1] is a:
+        return hit[2]
     P = motion.skeleton.rest_positions
     out = []
     for leg, chain in enumerate(a.legs):
@@ -141,6 +173,9 @@ def _hinges(motion, a: Anatomy) -> list[tuple[int, int, int, int]]:
             inner = math.degrees(math.pi - _angle(P[j] - P[p], P[c] - P[j]))
             if inner < BENT_AT_REST_DEG:
                 out.append((leg, p, j, c))
+    if len(_HINGES) > 64:
+        _HINGES.clear()
+    _HINGES[key] = (motion.skeleton, a, out)
     return out
 
 
@@ -169,6 +204,8 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         and its ``peak_joint``, ``locked_swing_fraction`` (worst hinge) and its
         ``locked_joint``.
     """
+    from quadsim.analysis.smoothness import angular_velocity
+
     a = anatomy or find_anatomy(motion.skeleton, motion.foot_joints)
     fps = float(motion.fps)
     k0 = int(math.ceil(start * fps - 1e-9))
@@ -176,20 +213,55 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
     if k0 >= len(Pall) - 2:
         raise ValueError(f"`start` = {start:g} s leaves fewer than three frames of the "
                          f"{motion.duration:.3g} s motion")
+    feet = Pall[k0:, list(a.feet)].copy()
+    feet[..., Y] -= _ground(motion)[k0:]
+    return appearance_from_arrays(motion, a, k0, foot_contacts(feet, fps),
+                                  angular_velocity(motion)[k0:])
+
+
+def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarray,
+                           joint_speed: np.ndarray) -> dict:
+    """:func:`appearance_report` of ``motion`` from its contacts and joint speeds.
+
+    For callers that measure a motion several ways and compute what the
+    figures share once (:func:`quadsim.analysis.measure.measure_motion`).
+
+    Parameters
+    ----------
+    motion : Motion
+    anatomy : Anatomy
+    k0 : int
+        First frame measured (``ceil(start * fps)``), leaving at least three.
+    contacts : ndarray of bool, shape (T - k0, 4)
+        :func:`~quadsim.skeleton.contacts.foot_contacts` of the feet
+        ``anatomy.feet`` from frame ``k0`` on, measured from the ground under
+        them (default thresholds).
+    joint_speed : ndarray, shape (T - 1 - k0, J)
+        :func:`~quadsim.analysis.smoothness.angular_velocity` of the motion
+        from frame ``k0`` on (rad/s).
+
+    Returns
+    -------
+    dict
+        As :func:`appearance_report`.
+    """
+    a = anatomy
+    fps = float(motion.fps)
+    Pall = motion.world_positions()
     P = Pall[k0:]
     ground = _ground(motion)[k0:]
     feet = P[:, list(a.feet)].copy()
     feet[..., Y] -= ground
-    contacts = foot_contacts(feet, fps)
     toes = toe_positions(motion, a)[k0:].copy()
     toes[..., Y] -= ground
     h = a.hip_height
     root = P[:, 0]
     vel = np.gradient(root[:, [X, Z]], 1.0 / fps, axis=0)
     body_speed = np.linalg.norm(vel, axis=1)
+    T = len(P)
 
     # strides: left-hind touchdown to the next
-    td = [s for s, _ in _runs(contacts[:, _LH]) if s > 0]
+    td = np.array([s for s, _ in _runs(contacts[:, _LH]) if s > 0], dtype=np.intp)
     bounds = list(zip(td[:-1], td[1:]))
     lengths, cadence, froude, law = [], [], [], []
     for s, e in bounds:
@@ -207,21 +279,35 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
     flex = spine_flexion(P, a)
     head = _head_pitch(motion, Pall, a)[k0:]
 
-    # contacts: toe tips and foot speeds at the events
+    # contacts: toe tips and foot speeds at the events, every contact of a foot at once
+    from quadsim.skeleton.contacts import _runs as _run_bounds
+
     slides, below, td_ratio, td_down, lo_ratio = [], [], [], [], []
     fvel = np.linalg.norm(np.diff(feet[..., [X, Z]], axis=0), axis=-1) * fps  # (T-1, 4)
     fdown = -np.diff(feet[..., Y], axis=0) * fps  # (T-1, 4), descent speed
+    frame = np.arange(T)
     for i in range(4):
-        for s, e in _runs(contacts[:, i]):
-            tip = toes[s:e, i]
-            below.append(-float(np.min(tip[:, Y])))
-            slides.append(float(np.max(np.linalg.norm(tip[:, [X, Z]] - tip[0, [X, Z]],
-                                                      axis=1))))
-            if s > 0 and body_speed[s] > 0.05:
-                td_ratio.append(fvel[s - 1, i] / body_speed[s])
-                td_down.append(max(fdown[s - 1, i], 0.0) / body_speed[s])
-            if e < len(P) and body_speed[e - 1] > 0.05:
-                lo_ratio.append(fvel[e - 1, i] / body_speed[e - 1])
+        c = contacts[:, i]
+        s, e = _run_bounds(c)
+        if len(s) == 0:
+            continue
+        tip = toes[:, i]
+        below.append(-np.minimum.reduceat(np.where(c, tip[:, Y], np.inf), s))
+        first = s[np.maximum(np.searchsorted(s, frame, side="right") - 1, 0)]
+        d = np.linalg.norm(tip[:, [X, Z]] - tip[first][:, [X, Z]], axis=1)
+        slides.append(np.maximum.reduceat(np.where(c, d, 0.0), s))
+        on = s[s > 0]
+        on = on[body_speed[on] > 0.05]
+        td_ratio.append(fvel[on - 1, i] / body_speed[on])
+        down = fdown[on - 1, i]
+        td_down.append(np.where(0.0 > down, 0.0, down) / body_speed[on])
+        off = e[e < T]
+        off = off[body_speed[off - 1] > 0.05]
+        lo_ratio.append(fvel[off - 1, i] / body_speed[off - 1])
+    below = np.concatenate(below) if below else np.zeros(0)
+    slides = np.concatenate(slides) if slides else np.zeros(0)
+    td_ratio, td_down, lo_ratio = (np.concatenate(x) if x else np.zeros(0)
+                                   for x in (td_ratio, td_down, lo_ratio))
 
     # flight: no foot down
     accel = []
@@ -231,20 +317,23 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
             c2 = np.polyfit(t - t.mean(), mid[s:e, Y], 2)[0]
             accel.append(2.0 * c2 / GRAVITY)
 
-    # joints: angular speed from the positions' local frames, hinge locking in swing
-    from quadsim.analysis.metrics import angular_velocity
-
-    w = np.degrees(angular_velocity(motion))[k0:]
+    # joints: angular speed from the local rotations, hinge locking in swing
+    w = np.degrees(joint_speed)
     peak_j = int(np.argmax(w.max(axis=0))) if w.size else 0
     locked, locked_name = None, None
-    for leg, p, j, c in _hinges(motion, a):
+    hinges = _hinges(motion, a)
+    if hinges:
+        leg, p, j, c = (list(x) for x in zip(*hinges))
+        inner = 180.0 - np.degrees(_angle(P[:, j] - P[:, p], P[:, c] - P[:, j]))  # (T, H)
         swing = ~contacts[:, leg]
-        if not swing.any():
-            continue
-        inner = 180.0 - np.degrees(_angle(P[:, j] - P[:, p], P[:, c] - P[:, j]))
-        frac = float(np.mean(inner[swing] >= STRAIGHT_DEG))
-        if locked is None or frac > locked:
-            locked, locked_name = frac, a.names[j]
+        n_swing = swing.sum(axis=0)
+        n_straight = (swing & (inner >= STRAIGHT_DEG)).sum(axis=0)
+        for k in range(len(hinges)):
+            if not n_swing[k]:
+                continue
+            frac = float(n_straight[k] / n_swing[k])
+            if locked is None or frac > locked:
+                locked, locked_name = frac, a.names[j[k]]
 
     return {
         "strides": len(bounds),
@@ -253,12 +342,12 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         "alexander_over_h": _median(law),
         "froude": _median(froude),
         "cadence": _median(cadence),
-        "trunk_pitch_range_deg": _median(np.degrees(_per_stride_range(pitch, bounds))),
-        "trunk_heave_over_h": _median(_per_stride_range(mid[:, Y], bounds) / h),
-        "spine_flexion_range_deg": _median(np.degrees(_per_stride_range(flex, bounds))),
-        "head_pitch_range_deg": _median(np.degrees(_per_stride_range(head, bounds))),
-        "toe_below_ground_mm": 1000.0 * max(below) if below else None,
-        "toe_slide_mm_p90": None if not slides else 1000.0 * _pct(slides, 90),
+        "trunk_pitch_range_deg": _median(np.degrees(_per_stride_range(pitch, td))),
+        "trunk_heave_over_h": _median(_per_stride_range(mid[:, Y], td) / h),
+        "spine_flexion_range_deg": _median(np.degrees(_per_stride_range(flex, td))),
+        "head_pitch_range_deg": _median(np.degrees(_per_stride_range(head, td))),
+        "toe_below_ground_mm": 1000.0 * float(below.max()) if below.size else None,
+        "toe_slide_mm_p90": None if not slides.size else 1000.0 * _pct(slides, 90),
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),
         "touchdown_descent_ratio_p90": _pct(td_down, 90),
         "liftoff_speed_ratio_p90": _pct(lo_ratio, 90),

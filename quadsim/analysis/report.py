@@ -31,7 +31,8 @@ from quadsim.skeleton.contacts import (
 )
 
 __all__ = ["feet_over_ground", "foot_slide", "format_report", "ground_penetration",
-           "motion_report", "penetration_depth", "report_from_positions", "root_speed"]
+           "motion_report", "penetration_depth", "report_from_arrays", "report_from_positions",
+           "root_speed"]
 
 
 # ------------------------------------------------- sliding and penetration
@@ -165,13 +166,60 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
         raise ValueError(f"need at least 3 frames after `start` = {start} s; "
                          f"the motion has {len(f)} frames at {fps:g} fps")
     f, root = f[i0:], root[i0:]
-    T = len(f)
     h_used, v_used = default_contact_thresholds(f)
     h_used = h_used if height is None else float(height)
     v_used = v_used if speed is None else float(speed)
-    tol = _tolerance(h_used)
     contacts = foot_contacts(f, fps, height=h_used, speed=v_used, min_frames=min_frames,
-                             tolerance=tol)
+                             tolerance=_tolerance(h_used))
+    omega = None if rotations is None else angular_velocity_vectors(rotations[i0:], fps)
+    return report_from_arrays(f, root, fps, contacts, omega, start=i0 / fps,
+                              joint_names=joint_names, height=h_used, speed=v_used)
+
+
+def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start=0.0,
+                       joint_names=None, height: float | None = None,
+                       speed: float | None = None, joint_speed=None) -> dict:
+    """:func:`report_from_positions` of the part measured, its contacts already found.
+
+    For callers that measure a motion several ways and compute what the
+    figures share once (:func:`quadsim.analysis.measure.measure_motion`).
+
+    Parameters
+    ----------
+    feet : ndarray, shape (T, 4, 3)
+        Foot world positions (m) of the frames measured.
+    root_positions : ndarray, shape (T, 3)
+    fps : float
+    contacts : ndarray of bool, shape (T, 4)
+        :func:`foot_contacts` of ``feet`` with the thresholds ``height``,
+        ``speed`` (and the tolerance that goes with ``height``).
+    omega : ndarray, shape (T - 1, J, 3), optional
+        :func:`~quadsim.analysis.smoothness.angular_velocity_vectors` of the
+        frames measured (rad/s); None leaves the smoothness figures out.
+    start : float
+        Seconds the part measured starts at (reported).
+    joint_names : sequence of str, length J, optional
+    height, speed : float, optional
+        The contact thresholds used (m, m/s); default
+        :func:`default_contact_thresholds` of ``feet``.
+    joint_speed : ndarray, shape (T - 1, J), optional
+        The norms of ``omega`` when already computed.
+
+    Returns
+    -------
+    dict
+        As :func:`report_from_positions`.
+    """
+    fps = _check_fps(fps)
+    f = _check_feet(feet)
+    root = np.asarray(root_positions, dtype=float)
+    T = len(f)
+    if height is None or speed is None:
+        h0, v0 = default_contact_thresholds(f)
+        height = h0 if height is None else height
+        speed = v0 if speed is None else speed
+    h_used, v_used = float(height), float(speed)
+    tol = _tolerance(h_used)
     evs = _events(contacts, fps, f, tol)
     table = _table(evs, f)
     duty = _duty(table)
@@ -193,7 +241,7 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
             "max_penetration_mm": float(depth[:, i].max() * 1e3),
         }
     report = {
-        "fps": fps, "frames": T, "duration": (T - 1) / fps, "start": i0 / fps,
+        "fps": fps, "frames": T, "duration": (T - 1) / fps, "start": start,
         "legs": legs,
         "stride_frequency": _num(_frequency(t_lh)),
         "stride_length": _num(_length(root, t_lh, fps)),
@@ -204,9 +252,10 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
         "max_angular_acceleration": None, "max_angular_acceleration_joint": None,
         "contact_height": h_used, "contact_speed": v_used,
     }
-    if rotations is not None:
-        w = angular_velocity_vectors(rotations[i0:], fps)
-        for key, val in (("max_angular_velocity", np.linalg.norm(w, axis=-1)),
+    if omega is not None:
+        w = omega
+        speeds = np.linalg.norm(w, axis=-1) if joint_speed is None else joint_speed
+        for key, val in (("max_angular_velocity", speeds),
                          ("max_angular_acceleration",
                           np.linalg.norm(np.diff(w, axis=0), axis=-1) * fps)):
             if val.size:

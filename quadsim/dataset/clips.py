@@ -18,11 +18,9 @@ alone; ``.bvh`` and ``.glb`` come from :func:`quadsim.save`.
 
 from __future__ import annotations
 
-import io
 import math
 import tempfile
 import warnings
-import zipfile
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -31,7 +29,7 @@ import numpy as np
 from quadsim.dataset.grid import ClipSpec
 
 __all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure",
-           "npz_bytes"]
+           "measure_clip", "npz_bytes"]
 
 #: The date every entry of a sweep's ``.npz`` carries (zip's earliest).
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
@@ -131,41 +129,45 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     return out
 
 
+def _anatomy(motion):
+    """The anatomy of the motion's skeleton (None for no quadruped), found once."""
+    from quadsim.skeleton.anatomy import find_anatomy
+
+    key = (id(motion.skeleton), tuple(motion.foot_joints))
+    hit = _ANATOMY.get(key)
+    if hit is None or hit[0] is not motion.skeleton:
+        try:
+            a = find_anatomy(motion.skeleton, motion.foot_joints)
+        except ValueError:  # no quadruped structure to measure the trunk and head on
+            a = None
+        hit = _ANATOMY[key] = (motion.skeleton, a)
+    return hit[1]
+
+
+def measure_clip(motion):
+    """:func:`measure`'s figures and the motion's measured contacts, each found once
+    (:func:`quadsim.analysis.measure.measure_motion`): ``.report`` and ``.contacts``."""
+    from quadsim.analysis.measure import measure_motion
+
+    a = _anatomy(motion)
+    return measure_motion(motion, anatomy=a, appearance=a is not None)
+
+
 def measure(motion) -> dict:
     """The figures ``quadsim metrics --json`` reports of ``motion``: footfalls, duty
     factors, phases, stride, speed, slide, penetration, smoothness and, under
     ``appearance``, what a viewer sees (None when it cannot be measured)."""
-    from quadsim.analysis.appearance import appearance_report
-    from quadsim.analysis.metrics import motion_report
-    from quadsim.skeleton.anatomy import find_anatomy
-
-    report = motion_report(motion)
-    key = (id(motion.skeleton), tuple(motion.foot_joints))
-    try:
-        hit = _ANATOMY.get(key)
-        if hit is None or hit[0] is not motion.skeleton:
-            hit = _ANATOMY[key] = (motion.skeleton,
-                                   find_anatomy(motion.skeleton, motion.foot_joints))
-        report["appearance"] = appearance_report(motion, anatomy=hit[1])
-    except ValueError:  # no quadruped structure to measure the trunk and head on
-        report["appearance"] = None
-    return report
+    return measure_clip(motion).report
 
 
-def npz_bytes(motion) -> bytes:
+def npz_bytes(motion, contacts=None) -> bytes:
     """The ``.npz`` file of ``motion`` (the arrays of :func:`quadsim.io.npz.npz_arrays`,
-    stored, every entry dated :data:`ZIP_DATE`): the same bytes for the same motion."""
+    stored, every entry dated :data:`ZIP_DATE`): the same bytes for the same motion.
+    ``contacts``: the motion's measured contacts when already found."""
     from quadsim.io.npz import npz_arrays
+    from quadsim.io.stored_npz import stored_npz_bytes
 
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
-        for key, value in npz_arrays(motion).items():
-            info = zipfile.ZipInfo(f"{key}.npy", date_time=ZIP_DATE)
-            info.create_system = 3
-            info.external_attr = 0o644 << 16
-            with z.open(info, "w", force_zip64=True) as f:
-                np.lib.format.write_array(f, np.asanyarray(value), allow_pickle=False)
-    return buf.getvalue()
+    return stored_npz_bytes(npz_arrays(motion, contacts), ZIP_DATE)
 
 
 def clip_bytes(motion, fmt: str, character=None) -> bytes:
@@ -214,10 +216,12 @@ def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
     done = {}
     for group in _groups(specs):
         for spec, motion in zip(group, generate(group)):
-            data = clip_bytes(motion, spec.format, _load(spec))
+            measured = measure_clip(motion)
+            data = npz_bytes(motion, measured.contacts) if spec.format == "npz" else \
+                clip_bytes(motion, spec.format, _load(spec))
             entry = {"id": spec.id, **spec.parameters(), "path": spec.path,
                      "frames": len(motion), "bytes": len(data), "quadsim": __version__,
-                     "metrics": measure(motion)}
+                     "metrics": measured.report}
             if out is None:
                 done[spec.id] = dict(entry, data=data)
             else:

@@ -45,6 +45,9 @@ MAX_BATCH = 32
 MAX_BATCH_FRAMES = 16384
 #: Tasks per worker a sweep is split into at least (so the workers finish together).
 TASKS_PER_WORKER = 2
+#: Local workers share the CPUs' threads out between them (one each for one
+#: worker a CPU) rather than each using all of them.
+WORKER_THREADS_SPLIT = True
 #: Seconds to wait for a Dask scheduler to answer.
 CONNECT_TIMEOUT = 10.0
 
@@ -167,10 +170,20 @@ def _worker_stop(signum, frame):  # pragma: no cover - runs in a worker process
     os._exit(128 + signum)
 
 
-def _worker_init() -> None:  # pragma: no cover - runs in a worker process
-    """A local worker: SIGTERM and SIGINT remove its unfinished files and end it."""
+def _worker_init(threads: int = 0) -> None:  # pragma: no cover - runs in a worker process
+    """A local worker: SIGTERM and SIGINT remove its unfinished files and end it; with
+    ``threads``, its compiled kernels run on that many threads (the workers already
+    share the CPUs out: more threads a worker would only wait for each other). The
+    bytes are the same whatever the threads."""
     for s in (signal.SIGTERM, signal.SIGINT):
         signal.signal(s, _worker_stop)
+    if threads:
+        try:
+            from numba import get_num_threads, set_num_threads
+
+            set_num_threads(max(1, min(threads, get_num_threads())))
+        except (ImportError, ValueError):
+            pass
 
 
 def _warm_up(tasks) -> None:
@@ -216,8 +229,10 @@ def _local(tasks, out: str, workers: int) -> Iterator[list[dict]]:
     ctx = multiprocessing.get_context("fork" if "fork" in methods else None)
     if ctx.get_start_method() == "fork":
         _warm_up(tasks)
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)), mp_context=ctx,
-                               initializer=_worker_init)
+    n = min(workers, len(tasks))
+    threads = max(1, cpu_count() // n) if WORKER_THREADS_SPLIT else 0
+    pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=_worker_init,
+                               initargs=(threads,))
     from concurrent.futures.process import BrokenProcessPool
 
     try:

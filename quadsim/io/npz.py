@@ -67,8 +67,16 @@ def _measured_contacts(motion: Motion) -> np.ndarray | None:
     return foot_contacts(motion.foot_positions(), motion.fps)
 
 
-def npz_arrays(motion: Motion) -> dict[str, np.ndarray]:
-    """The arrays :func:`write_npz` stores, by key (see the module notes)."""
+def npz_arrays(motion: Motion, contacts: np.ndarray | None = None) -> dict[str, np.ndarray]:
+    """The arrays :func:`write_npz` stores, by key (see the module notes).
+
+    Parameters
+    ----------
+    motion : Motion
+    contacts : ndarray of bool, shape (T, 4), optional
+        The measured contacts when already found (``foot_contacts`` of the
+        motion's foot positions, default thresholds); found here otherwise.
+    """
     skel = motion.skeleton
     out = {
         "format": np.array("quadsim-npz"),
@@ -87,7 +95,8 @@ def npz_arrays(motion: Motion) -> dict[str, np.ndarray]:
     }
     if motion.foot_joints is not None:
         out["foot_joints"] = np.array(motion.foot_joints, dtype=str)
-        out["contacts"] = _measured_contacts(motion)
+        out["contacts"] = _measured_contacts(motion) if contacts is None else \
+            np.asarray(contacts, dtype=bool)
     if motion.contacts is not None:
         out["planned_contacts"] = np.asarray(motion.contacts, dtype=bool)
     if motion.gaits is not None:

@@ -208,9 +208,11 @@ def foot_contacts(feet, fps, *, height: float | None = None, speed: float | None
     T = len(f)
     if T == 0:
         return np.zeros((0, 4), dtype=bool)
-    h0, v0 = default_contact_thresholds(f)
-    height = h0 if height is None else float(height)
-    speed = v0 if speed is None else float(speed)
+    if height is None or speed is None:
+        h0, v0 = default_contact_thresholds(f)
+        height = h0 if height is None else height
+        speed = v0 if speed is None else speed
+    height, speed = float(height), float(speed)
     low = f[..., Y] - ground <= height
     step = np.linalg.norm(np.diff(_horizontal(f), axis=0), axis=-1) * fps  # (T-1, 4)
     inf = np.full((1, 4), np.inf)
@@ -218,15 +220,38 @@ def foot_contacts(feet, fps, *, height: float | None = None, speed: float | None
     c = low & (v <= speed)
     tol = _tolerance(height) if tolerance is None else float(tolerance)
     min_frames = int(min_frames)
-    out = np.zeros_like(c)
-    for i in range(4):
-        ci = _debounce(c[:, i], min_frames) if min_frames > 1 else c[:, i]
-        s, e = _runs(ci)
-        if len(s):
-            _, _, k0, k1 = _planted(f[:, i, Y], s, e, tol)
-            keep = k1 + 1 - k0 >= min_frames
-            out[:, i] = _ranges_mask(k0[keep], k1[keep] + 1, T)
-    return out
+    # the four legs one after the other, each followed by a frame out of contact:
+    # runs never cross from one leg to the next, and every step is done once
+    L = T + 1
+    flat = np.zeros((4, L), dtype=bool)
+    flat[:, :T] = c.T
+    flat = flat.reshape(-1)
+    if min_frames > 1:
+        flat = _debounce_legs(flat, T, min_frames)
+    s, e = _runs(flat)
+    out = np.zeros(4 * L, dtype=bool)
+    if len(s):
+        y = np.zeros((4, L))
+        y[:, :T] = f[..., Y].T
+        _, _, k0, k1 = _planted(y.reshape(-1), s, e, tol, cut=(s % L == 0) | (e % L == T))
+        keep = k1 + 1 - k0 >= min_frames
+        out = _ranges_mask(k0[keep], k1[keep] + 1, 4 * L)
+    result = np.empty_like(c)  # laid out as c (and so as the feet): the same bytes as ever
+    result[...] = out.reshape(4, L)[:, :T].T
+    return result
+
+
+def _debounce_legs(flat: np.ndarray, T: int, min_frames: int) -> np.ndarray:
+    """:func:`_debounce` of each leg of ``flat`` (legs of ``T`` frames, each followed by
+    one frame out of contact)."""
+    L, N = T + 1, len(flat)
+    s, e = _runs(~flat)
+    # interior: not at a leg's first frame, not running into the frame after its last
+    short = (s > 0) & (e <= (s // L) * L + T) & (e - s < min_frames)
+    flat = flat | _ranges_mask(s[short], e[short], N)
+    s, e = _runs(flat)
+    short = e - s < min_frames
+    return flat & ~_ranges_mask(s[short], e[short], N)
 
 
 def contact_intervals(contacts) -> list[list[tuple[int, int]]]:
@@ -260,17 +285,32 @@ def _events(contacts, fps, feet=None, tolerance=None) -> list[dict]:
             raise ValueError(f"`feet` has {len(f)} frames but `contacts` has {T}")
         if tolerance is None:
             tolerance = _tolerance(default_contact_thresholds(f)[0])
-    out = []
-    for i in range(4):
-        s, e = _runs(c[:, i])
-        if feet is None or len(s) == 0:
-            on, off = s.astype(float), e.astype(float)
-        else:
-            on, off = _refine(f[:, i, Y], s, e, float(tolerance))
-        on = np.where(s == 0, np.nan, on / fps)
-        off = np.where(e == T, np.nan, off / fps)
-        out.append({"s": s, "e": e, "on": on, "off": off})
-    return out
+    if feet is None:
+        out = []
+        for i in range(4):
+            s, e = _runs(c[:, i])
+            on = np.where(s == 0, np.nan, s / fps)
+            off = np.where(e == T, np.nan, e / fps)
+            out.append({"s": s, "e": e, "on": on, "off": off})
+        return out
+    # the four legs one after the other, each followed by a frame out of contact
+    L = T + 1
+    flat = np.zeros((4, L), dtype=bool)
+    flat[:, :T] = c.T
+    s, e = _runs(flat.reshape(-1))
+    lo = s - s % L  # each contact's leg's first frame
+    y = np.zeros((4, L))
+    y[:, :T] = f[..., Y].T
+    if len(s):
+        on, off = _refine(y.reshape(-1), s, e, float(tolerance), lo, lo + T)
+    else:
+        on = off = np.zeros(0)
+    s, e = s - lo, e - lo
+    on = np.where(s == 0, np.nan, on / fps)
+    off = np.where(e == T, np.nan, off / fps)
+    cuts = np.searchsorted(lo, np.arange(1, 4) * L)
+    return [{"s": a, "e": b, "on": p, "off": q} for a, b, p, q in
+            zip(*(np.split(x, cuts) for x in (s, e, on, off)))]
 
 
 def _group_medians(values: np.ndarray, groups: np.ndarray, sizes: np.ndarray) -> np.ndarray:
@@ -280,7 +320,7 @@ def _group_medians(values: np.ndarray, groups: np.ndarray, sizes: np.ndarray) ->
     return values[order][first + (sizes - 1) // 2]
 
 
-def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
+def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
     """Planted height and first/last on-ground frame of the contacts [s, e) of one foot.
 
     The planted height is the (lower) median of the contact's heights -- or
@@ -304,7 +344,8 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
     cf = frame[contact]
     sizes = e - s
     base = _group_medians(y[cf], ids[cf], sizes)
-    cut = (s == 0) | (e == T)
+    if cut is None:  # contacts the clip cuts (else given: several feet one after another)
+        cut = (s == 0) | (e == T)
     if cut.any():
         base = np.where(cut, np.minimum.reduceat(np.where(contact, y, np.inf), s), base)
     mad = _group_medians(np.abs(y[cf] - base[ids[cf]]), ids[cf], sizes)
@@ -315,33 +356,37 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
     return base, band, k0, k1
 
 
-def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float):
+def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, lo=0, hi=None):
     """Sub-frame touchdown and lift-off (in frames) of the contacts [s, e) of one foot.
 
     Touchdown: from the last frame ``a`` above the on-ground band, the foot
     descends in a straight line to its planted height at the faster of its
     descent rates over the step before ``a`` and the step after it; the result
     is kept within ``[a, a + 2]``. Lift-off is the mirror image.
+
+    ``lo`` and ``hi`` (per contact, default 0 and ``len(y)``) bound the frames of
+    the contact's foot when several feet are given one after another; the
+    frames returned count from ``lo``.
     """
-    T = len(y)
-    base, band, k0, k1 = _planted(y, s, e, tol)
-    on, off = k0.astype(float), k1.astype(float)
+    hi = len(y) if hi is None else hi
+    base, band, k0, k1 = _planted(y, s, e, tol, cut=(s == lo) | (e == hi))
+    on, off = (k0 - lo).astype(float), (k1 - lo).astype(float)
     # touchdown
     a = k0 - 1
-    ok = (a >= 0) & (y[np.maximum(a, 0)] > base + band)
-    a = np.maximum(a, 0)
+    ok = (a >= lo) & (y[np.maximum(a, lo)] > base + band)
+    a = np.maximum(a, lo)
     rate = y[a] - y[k0]
-    rate = np.where(a >= 1, np.maximum(rate, y[np.maximum(a - 1, 0)] - y[a]), rate)
+    rate = np.where(a >= lo + 1, np.maximum(rate, y[np.maximum(a - 1, lo)] - y[a]), rate)
     frac = np.divide(y[a] - base, rate, out=np.ones_like(rate), where=rate > 0)
-    on = np.where(ok, a + np.clip(frac, 0.0, 2.0), on)
+    on = np.where(ok, (a - lo) + np.clip(frac, 0.0, 2.0), on)
     # lift-off
     b = k1 + 1
-    ok = (b < T) & (y[np.minimum(b, T - 1)] > base + band)
-    b = np.minimum(b, T - 1)
+    ok = (b < hi) & (y[np.minimum(b, hi - 1)] > base + band)
+    b = np.minimum(b, hi - 1)
     rate = y[b] - y[k1]
-    rate = np.where(b + 1 < T, np.maximum(rate, y[np.minimum(b + 1, T - 1)] - y[b]), rate)
+    rate = np.where(b + 1 < hi, np.maximum(rate, y[np.minimum(b + 1, hi - 1)] - y[b]), rate)
     frac = np.divide(y[b] - base, rate, out=np.ones_like(rate), where=rate > 0)
-    off = np.where(ok, b - np.clip(frac, 0.0, 2.0), off)
+    off = np.where(ok, (b - lo) - np.clip(frac, 0.0, 2.0), off)
     return on, off
 
 

@@ -1,0 +1,107 @@
+"""Every figure of a motion at once: the footfall report and the appearance, measured once.
+
+``quadsim metrics --json`` and a sweep's manifest report the same figures of
+a motion: :func:`~quadsim.analysis.report.motion_report` and, under
+``appearance``, :func:`~quadsim.analysis.appearance.appearance_report`.
+Measured one after the other, both find the joints' world positions, the
+feet's contacts and the joints' angular velocities. :func:`measure_motion`
+computes each of these once and gives it to both figures (and the contacts
+back to the caller, for a ``.npz`` file's ``contacts``): the figures are
+exactly those of the separate calls.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from quadsim.analysis.appearance import _ground, appearance_from_arrays
+from quadsim.analysis.report import feet_over_ground, report_from_arrays
+from quadsim.analysis.smoothness import angular_velocity_vectors
+from quadsim.frames import Y
+from quadsim.skeleton.anatomy import Anatomy, find_anatomy
+from quadsim.skeleton.contacts import default_contact_thresholds, foot_contacts
+
+__all__ = ["Measured", "measure_motion"]
+
+
+@dataclass(frozen=True)
+class Measured:
+    """The figures of a motion and the contacts they were measured with.
+
+    Attributes
+    ----------
+    report : dict
+        :func:`~quadsim.analysis.report.motion_report` of the motion, with
+        ``appearance``: its :func:`~quadsim.analysis.appearance.appearance_report`,
+        or None when the skeleton has no quadruped structure to measure.
+    contacts : ndarray of bool, shape (T, 4)
+        :func:`~quadsim.skeleton.contacts.foot_contacts` of the motion's foot
+        joint world positions as they are (default thresholds): what
+        :func:`quadsim.io.npz.npz_arrays` stores as ``contacts``.
+    """
+
+    report: dict
+    contacts: np.ndarray
+
+
+def measure_motion(motion, *, anatomy: Anatomy | None = None,
+                   appearance: bool = True) -> Measured:
+    """The report of ``quadsim metrics --json`` of a whole motion, measured once.
+
+    Parameters
+    ----------
+    motion : Motion
+        Must name its four foot joints (``foot_joints``).
+    anatomy : Anatomy, optional
+        The skeleton's anatomy (default: found from it); ignored without
+        ``appearance``.
+    appearance : bool
+        Measure the appearance too (``report["appearance"]``; None when the
+        skeleton has no quadruped structure, or when False).
+
+    Returns
+    -------
+    Measured
+        ``report`` equal to ``motion_report(motion)`` plus ``appearance``
+        (``appearance_report(motion, anatomy=anatomy)``), and the contacts of
+        the feet as they are.
+
+    Raises
+    ------
+    ValueError
+        When the motion does not name its foot joints, or is too short.
+    """
+    if getattr(motion, "foot_joints", None) is None:
+        raise ValueError("measure_motion needs the motion's foot joints: build the Motion "
+                         "with foot_joints=(LF, RF, LH, RH joint names)")
+    fps = float(motion.fps)
+    if len(motion) < 3:
+        raise ValueError(f"need at least 3 frames; the motion has {len(motion)} frames "
+                         f"at {fps:g} fps")
+    feet = feet_over_ground(motion)
+    height, speed = default_contact_thresholds(feet)
+    contacts = foot_contacts(feet, fps, height=height, speed=speed)
+    omega = angular_velocity_vectors(motion.rotations, fps)
+    joint_speed = np.linalg.norm(omega, axis=-1)
+    report = report_from_arrays(feet, motion.root_positions, fps, contacts, omega,
+                                joint_names=motion.skeleton.names, height=height,
+                                speed=speed, joint_speed=joint_speed)
+    report["appearance"] = None
+    if appearance:
+        try:  # as appearance_report, the contacts of the anatomy's feet
+            a = anatomy or find_anatomy(motion.skeleton, motion.foot_joints)
+            if tuple(a.feet) == tuple(motion.skeleton.indices(motion.foot_joints)):
+                mine = contacts
+            else:
+                f = motion.world_positions()[:, list(a.feet)].copy()
+                f[..., Y] -= _ground(motion)
+                mine = foot_contacts(f, fps)
+            report["appearance"] = appearance_from_arrays(motion, a, 0, mine, joint_speed)
+        except ValueError:  # no quadruped structure to measure the trunk and head on
+            report["appearance"] = None
+    ground = (getattr(motion, "extras", None) or {}).get("ground")
+    if ground is not None:
+        contacts = foot_contacts(motion.foot_positions(), fps)
+    return Measured(report, contacts)
