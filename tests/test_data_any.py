@@ -33,6 +33,13 @@ GAITS = ("walk", "trot", "canter", "rotary_gallop")
 #: A speed inside each gait's clips (m/s).
 SPEED = {"walk": 0.65, "trot": 1.7, "canter": 2.7, "rotary_gallop": 4.0}
 PAIRS = list(itertools.permutations(GAITS, 2))
+#: Known defect, strict (the mark goes with it): the dog cub's procedural rotary gallop,
+#: which the takes are made of, rolls its toe tips up to 6.1 mm in a stance while the
+#: paw joint stays put, and the clips cut from it carry that into these changes (toe
+#: tips 5.1-7.9 mm; the paw joints 3e-11 mm).
+_TOE_ROLL = pytest.mark.xfail(strict=True, reason="the source rotary gallop's toe tips roll "
+                              "over 5 mm in stance")
+_ROLLING = {("walk", "rotary_gallop"), ("rotary_gallop", "walk"), ("rotary_gallop", "canter")}
 
 
 def _character_with_clips(folder, clips: str, ident: str = "my_dog"):
@@ -58,12 +65,18 @@ def my_dog(tmp_path_factory):
 
 
 def _slide_and_contacts(motion):
+    """The largest stance slide of the toe tips (what a viewer sees of a planted foot;
+    the foot joint is what the placement pins), the contacts measured from the feet,
+    and the foot positions."""
+    from quadsim.analysis.appearance import toe_positions
+
     f = motion.foot_positions()
     c = foot_contacts(f, motion.fps)
-    return foot_slide(f, c)[1], c, f
+    return max(foot_slide(f, c)[1], foot_slide(toe_positions(motion), c)[1]), c, f
 
 
-@pytest.mark.parametrize("pair", PAIRS, ids=[f"{a}-{b}" for a, b in PAIRS])
+@pytest.mark.parametrize("pair", [pytest.param(p, marks=[_TOE_ROLL] if p in _ROLLING else [])
+                                  for p in PAIRS], ids=[f"{a}-{b}" for a, b in PAIRS])
 def test_every_ordered_gait_pair_keeps_stance_feet_within_5mm(my_dog, pair):
     a, b = pair
     script = Script((0.0, 2.5), (Command(speed=SPEED[a], gait=a), Command(speed=SPEED[b], gait=b)))
@@ -71,7 +84,7 @@ def test_every_ordered_gait_pair_keeps_stance_feet_within_5mm(my_dog, pair):
         warnings.simplefilter("ignore", QuadsimClampWarning)
         m = quadsim.simulate(str(my_dog), script, seconds=5.5, mode="data")
     slide, c, f = _slide_and_contacts(m)
-    assert slide < 0.005, f"{a} -> {b}: a stance foot slides {slide * 1000:.2f} mm"
+    assert slide < 0.005, f"{a} -> {b}: a stance toe slides {slide * 1000:.2f} mm"
     labels = set(m.gaits)
     assert {a, b, f"{a}->{b}"} <= labels, labels
     half = int(2.5 * m.fps)

@@ -75,6 +75,21 @@ def test_toe_tips_stay_on_the_ground_and_put_in_stance(character, gait):
     assert r["toe_slide_mm_p90"] <= 5.0
 
 
+@pytest.mark.xfail(strict=True, reason="a planted foot turns with the body's heading, so its "
+                   "toe tip swings about the pinned joint while the body turns")
+@pytest.mark.parametrize("character", ["dog_cub", "horse"])
+def test_toe_tips_stay_put_in_a_turning_walk(character):
+    """Known defect, strict (the mark goes with it): in a walk turning at 20-30 deg/s the
+    planted toe tips slide 7.8 mm (dog cub) and 16.5 mm (horse) in 90 % of stances, the
+    paw or hoof joint pinned: the foot's yaw is held at the body's present heading, not at
+    the heading it landed with. Straight, the same walks slide 0.5-0.8 mm."""
+    ch = load_character(character)
+    g = gait_table(ch)["walk"]
+    m = simulate(ch, Command(speed=g.preferred_speed, gait="walk",
+                             turn_rate=math.radians(25.0)), 12.0, FPS).time_slice(4.0, 13.0)
+    assert appearance_report(m)["toe_slide_mm_p90"] <= 5.0
+
+
 @pytest.mark.parametrize("character,gait", [
     (c, g) for c in CHARACTERS for g in ("walk", "trot", "transverse_gallop", "rotary_gallop")])
 def test_the_trunk_rocks_flexes_and_flies_like_the_animal(character, gait):
