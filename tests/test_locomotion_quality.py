@@ -75,14 +75,29 @@ def test_toe_tips_stay_on_the_ground_and_put_in_stance(character, gait):
     assert r["toe_slide_mm_p90"] <= 5.0
 
 
-@pytest.mark.xfail(strict=True, reason="a planted foot turns with the body's heading, so its "
-                   "toe tip swings about the pinned joint while the body turns")
+@pytest.mark.xfail(strict=True, reason="a planted hoof's held yaw dips its toe tip in a "
+                   "tight turn")
+def test_toe_tips_stay_above_the_ground_in_a_tight_turning_walk():
+    """Known defect, strict (the mark goes with it): a planted hoof keeps the yaw it
+    landed with (its toe stays put), but it dips while the body turns over it (the
+    yaw is applied about the foot's own axis, perhaps not the vertical: not yet
+    examined): in the horse's walk turning at
+    40 deg/s the toe tips go 5.9 mm under the ground (1.2 mm when the foot turned with
+    the body, sliding 33 mm instead). Within 3 mm is asked."""
+    ch = load_character("horse")
+    g = gait_table(ch)["walk"]
+    m = simulate(ch, Command(speed=g.preferred_speed, gait="walk",
+                             turn_rate=math.radians(40.0)), 12.0, FPS).time_slice(4.0, 13.0)
+    assert appearance_report(m)["toe_below_ground_mm"] <= 3.0
+
+
 @pytest.mark.parametrize("character", ["dog_cub", "horse"])
 def test_toe_tips_stay_put_in_a_turning_walk(character):
-    """Known defect, strict (the mark goes with it): in a walk turning at 20-30 deg/s the
-    planted toe tips slide 7.8 mm (dog cub) and 16.5 mm (horse) in 90 % of stances, the
-    paw or hoof joint pinned: the foot's yaw is held at the body's present heading, not at
-    the heading it landed with. Straight, the same walks slide 0.5-0.8 mm."""
+    """A planted foot keeps the yaw it landed with while the body turns over it, so its
+    toe tip stays put: in a walk turning at 25 deg/s the toe tips slide at most 5 mm in
+    90 % of stances. When the foot's yaw followed the body's present heading (14 deg
+    over a horse's walking stance) they slid 7.8 mm (dog cub) and 16.5 mm (horse), the
+    paw or hoof joint pinned."""
     ch = load_character(character)
     g = gait_table(ch)["walk"]
     m = simulate(ch, Command(speed=g.preferred_speed, gait="walk",

@@ -103,7 +103,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     liftoff = rng.normal(0, 1, (n, 4, 3))
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
-                                                   liftoff)))
+                                                   liftoff)), np.zeros((n, 4)), np.zeros((n, 4)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -122,7 +122,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     out = B.plan_outputs(n)
     _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
     feet, fold = out.feet, out.fold
-    st, ss, lo, td, pl, lf = feet_state
+    st, ss, lo, td, pl, lf = feet_state[:6]
     assert not st[0, 0] and lo[0, 0] <= theta[0, 0] < td[0, 0]
     np.testing.assert_array_equal(lf[0, 0], planted[0, 0])
     # the expected targets and swing positions, from the array functions
@@ -193,7 +193,9 @@ def _reference_pose(ch, poser, plan):
     G, P = forward_kinematics(sk, L, plan["root"])
     err = np.zeros((T, 4))
     for i, geom in enumerate(poser.legs):
-        yaw = plan["heading"] + (plan["bend_yaw"] if i < 2 else 0.0)  # the fore feet's bend
+        # the world yaw each foot keeps: its landing heading while planted
+        yaw = plan["foot_yaw"][:, i] if "foot_yaw" in plan else \
+            plan["heading"] + (plan["bend_yaw"] if i < 2 else 0.0)
         L[:, geom.chain], err[:, i] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
                                                 plan["feet"][:, i], plan["fold"][:, i],
                                                 plan["toe"][:, i], foot_yaw=yaw)

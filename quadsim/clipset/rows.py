@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from quadsim.locomotion.pose_kernel import FEET, HEADING, ROOT
+from quadsim.locomotion.pose_kernel import FEET, FOOT_YAW, HEADING, ROOT
 from quadsim.skeleton.motion import Motion
 
 __all__ = ["close_loop", "closure", "in_place", "on_path", "place", "pose_rows", "turn"]
@@ -35,6 +35,7 @@ def turn(rows: np.ndarray, angle, shift=(0.0, 0.0)) -> np.ndarray:
     rows[:, _X] = c * x + n * z + s[:, :1]
     rows[:, _Z] = -n * x + c * z + s[:, 1:]
     rows[:, HEADING] += a[:, 0]
+    rows[:, FOOT_YAW:FOOT_YAW + 4] += a
     return rows
 
 

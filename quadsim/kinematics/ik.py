@@ -254,11 +254,12 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
     rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
     and position ``positions[t, p]`` (m), to the target, swing fold and toe
     pitch in the columns ``cols = [target, fold, toe, heading, bend]`` (int array)
-    of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``):
+    of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``,
+    ``heading + i``, the world yaw the foot keeps; ``bend`` is not read):
     writes the chains' local rotations ``local[t, j]`` and the misses
-    ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If ``heading >= 0`` each foot keeps its world yaw
-    at the body's heading (the fore feet's plus the spine's yaw ``bend``)
-    whatever the yaw of its leg's plane (the girdles' sway): a foot turns
+    ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If ``heading >= 0`` each foot keeps the world
+    yaw its column gives whatever the yaw of its leg's plane (the girdles'
+    sway): a foot turns
     about the vertical through its joint, the foot joint's local rotation
     then ``R_x(flexion) @ R_y(yaw)``, so a planted foot's toe stays put.
 
@@ -382,7 +383,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                     local[t, j, 1, 1] = ca * cb
                     local[t, j, 1, 2] = -ca * sb
                 elif k == n and HEAD >= 0:  # R_x(rel) @ R_y(yaw): the foot's yaw held
-                    want = plan[t, HEAD] + (plan[t, BEND] if i < 2 else 0.0)
+                    want = plan[t, HEAD + i]
                     dy = want - math.atan2(G[g, p, 0, 2], G[g, p, 2, 2])
                     cy, sy = math.cos(dy), math.sin(dy)
                     local[t, j, 0, 0] = cy

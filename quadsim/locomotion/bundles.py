@@ -164,6 +164,8 @@ class FeetState(NamedTuple):
     theta_td: np.ndarray  #: phase of the planned touchdown (rad)
     planted: np.ndarray   #: (N, 4, 3) where each planted foot is (m)
     liftoff: np.ndarray   #: (N, 4, 3) where each swing began (m)
+    yaw: np.ndarray       #: world yaw each foot keeps (rad): its landing heading in stance
+    yaw_lo: np.ndarray    #: ... and had at its lift-off
 
 
 class BodyState(NamedTuple):

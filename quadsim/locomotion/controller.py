@@ -331,6 +331,7 @@ class ProceduralController:
             "sway": out.sway[0].copy(), "bend_yaw": bend, "bend_pitch": spine,
             "feet": out.feet[0].copy(), "fold": fold, "toe": TOE_PER_FOLD * fold,
             "tail": bs.tail[0].copy(), "look": LOOK_PER_BEND * bend,
+            "foot_yaw": st.feet.yaw[0].copy(),
             "contacts": st.feet.stance[0].copy(), "gait": self._label,
             "phase": out.phase[0].copy(), "speed": mo.speed.item(0),
             "duty": st.schedule.params.duty.item(0), "spine": spine,

@@ -83,6 +83,7 @@ def feet_rows(state, scratch, reach, sc, out):
                     stance[n, i] = False
                     for c in range(3):
                         liftoff[n, i, c] = planted[n, i, c]
+                    ft.yaw_lo[n, i] = ft.yaw[n, i]
                     cross = TWO_PI * (math.floor(th / TWO_PI) + dn)
                     theta_lo[n, i] = cross if due and cross > scratch.theta_prev[n, i] else th
                     td = TWO_PI * (math.floor(th / TWO_PI) + 1.0)
@@ -98,10 +99,16 @@ def feet_rows(state, scratch, reach, sc, out):
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
             fold[n, i] = 0.0
-            if stance[n, i]:
+            if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with
                 for c in range(3):
                     feet[n, i, c] = planted[n, i, c]
                 continue
+            # a swinging foot turns from its lift-off yaw to the body's (the fore feet's
+            # with the spine's yaw), eased in over the swing: it lands with the body's
+            want = state.motion.heading[n] + (state.motion.bend[n] if i < 2 else 0.0)
+            x = swing_s[n, i]
+            turn = (want - ft.yaw_lo[n, i] + math.pi) % TWO_PI - math.pi
+            ft.yaw[n, i] = ft.yaw_lo[n, i] + x * x * (3.0 - 2.0 * x) * turn
             g = 1 if i < 2 else 0  # the fore legs follow the fore key point
             # time to the planned touchdown, negative on the frame that lands
             # past it, so the touchdown point stands still in the world under

@@ -51,6 +51,7 @@ from quadsim.locomotion.pose_kernel import (
     BEND_YAW,
     FEET,
     FOLD,
+    FOOT_YAW,
     HEADING,
     LOOK,
     PITCH,
@@ -342,6 +343,8 @@ def pack_rows(state, out):
             packed[n, FOLD + i] = out.fold[n, i]
             packed[n, TOE + i] = TOE_PER_FOLD * out.fold[n, i]
         packed[n, LOOK] = LOOK_PER_BEND * mo.bend[n]
+        for i in range(4):
+            packed[n, FOOT_YAW + i] = state.feet.yaw[n, i]
         for k in range(n_tail):
             packed[n, TAIL + 2 * k] = tail[n, k, 0]
             packed[n, TAIL + 2 * k + 1] = tail[n, k, 1]

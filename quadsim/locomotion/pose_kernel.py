@@ -16,7 +16,7 @@ plans them, the interactive step packs one frame. The legs' IK is
 Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 ``root`` (3), ``heading``, ``pitch``, ``sway`` (2), ``bend_yaw``,
 ``bend_pitch``, ``feet`` (4 x 3, row-major), ``fold`` (4), ``toe`` (4),
-``look``, then ``tail`` (n_tail x (pitch, yaw)).
+``look``, ``foot_yaw`` (4), then ``tail`` (n_tail x (pitch, yaw)).
 
 Leg constants (:func:`pack_legs`), per leg LF, RF, LH, RH: ``leg_int`` (4, 4 + n_max + 1)
 holds the number of bones n, the pair's upper bone, the top joint's parent,
@@ -43,8 +43,8 @@ __all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "PoseScratch", "layout", "nod_of
            "pack_plan", "plan_columns", "pose_rig", "pose_rows", "pose_scratch"]
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
-ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, TAIL = (
-    0, 3, 4, 5, 7, 8, 9, 21, 25, 29, 30)
+ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, FOOT_YAW, TAIL = (
+    0, 3, 4, 5, 7, 8, 9, 21, 25, 29, 30, 34)
 
 
 def plan_columns(n_tail: int) -> int:
@@ -80,6 +80,11 @@ def pack_plan(plan: dict, n_tail: int) -> np.ndarray:
     out[:, FOLD:FOLD + 4] = plan["fold"]
     out[:, TOE:TOE + 4] = plan["toe"]
     out[:, LOOK] = plan["look"]
+    if "foot_yaw" in plan:
+        out[:, FOOT_YAW:FOOT_YAW + 4] = plan["foot_yaw"]
+    else:  # the body's heading, the fore feet's with the spine's yaw
+        out[:, FOOT_YAW:FOOT_YAW + 4] = out[:, HEADING, None]
+        out[:, FOOT_YAW:FOOT_YAW + 2] += out[:, BEND_YAW, None]
     if n_tail:
         out[:, TAIL:] = np.reshape(np.asarray(plan["tail"])[:, :n_tail], (T, 2 * n_tail))
     return out
@@ -344,7 +349,7 @@ class PoseRig(NamedTuple):
     how, frame, fixed, rest : ndarray
         The skeleton's layout (:func:`layout`).
     cols : ndarray of int, shape (5,)
-        The packed plan's columns the legs' IK reads (feet, fold, toe, heading, bend).
+        The packed plan's columns the legs' IK reads (feet, fold, toe, foot yaw; -1).
     """
 
     parents: np.ndarray
@@ -377,7 +382,7 @@ def pose_rig(parents, offsets, spine, tail, neck, trunk, thorax: int, legs, nod:
     how, frame, fixed, rest = layout(parents, spine, tail, neck, trunk, legs[0])
     return PoseRig(parents, np.array(offsets, dtype=float), spine, tail, neck, trunk,
                    int(thorax), *legs, float(nod), how, frame, fixed, rest,
-                   ints([FEET, FOLD, TOE, HEADING, BEND_YAW]))
+                   ints([FEET, FOLD, TOE, FOOT_YAW, -1]))
 
 
 class PoseScratch(NamedTuple):

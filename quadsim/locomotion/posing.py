@@ -45,6 +45,7 @@ PLAN_FIELDS = {
     "toe": (4,),           # toe pitch (rad)
     "tail": (None, 2),     # tail joint (pitch, yaw) local angles (rad)
     "look": (),            # head yaw relative to the thorax (rad)
+    "foot_yaw": (4,),      # world yaw each foot keeps (rad; optional: else the heading's)
 }
 
 
