@@ -53,19 +53,10 @@ def folder(tmp_path_factory):
     return str(tmp_path_factory.mktemp("rig_gaits"))
 
 
-#: Known defect, strict (the mark goes with the defect): in the Fox's trot its left fore
-#: foot rises 4-8 mm off its planted point over the second half of each stance (the
-#: right fore, its mirror image with the same bone lengths, stays down), so its measured
-#: duty factor is 0.15 against the table's 0.375.
-_FOX_TROT = pytest.mark.xfail(strict=True, reason="the Fox's left fore foot lifts in late "
-                              "trot stance")
-
-
 def _cases():
     for kind in ("fox", "blender_dog"):
         for gait in GAITS:
-            marks = [_FOX_TROT] if (kind, gait) == ("fox", "trot") else []
-            yield pytest.param(kind, gait, marks=marks, id=f"{kind}-{gait}")
+            yield pytest.param(kind, gait, id=f"{kind}-{gait}")
 
 
 @pytest.mark.parametrize("kind,gait", list(_cases()))

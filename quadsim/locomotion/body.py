@@ -78,13 +78,14 @@ STANCE_REACH = 0.97
 
 
 @plan_inner
-def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex):
+def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt):
     """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
     (``dropped`` m below standing) with its planted feet ``left``, ``right``
     within :data:`STANCE_REACH` of their legs' reach (infinite with none
     planted): each leg's top over the ground point of its key and offsets,
-    lifted by the spine's flexion ``flex`` (rad); ``ft`` is the feet state,
-    ``c``, ``sn`` the cosine and sine of the girdle's key heading."""
+    lifted by the spine's flexion ``flex`` (rad) and by ``tilt`` (m, the
+    trunk's pitch with the flexion); ``ft`` is the feet state, ``c``, ``sn``
+    the cosine and sine of the girdle's key heading."""
     cap = math.inf
     for i in (left, right):
         if not ft.stance[n, i]:
@@ -95,7 +96,7 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex):
         dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
         r = STANCE_REACH * reach.radius[n, i]
         high = math.sqrt(max(r * r - dx * dx - dz * dz, 0.0))
-        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex
+        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
         cap = min(cap, high - top)
     return cap
 
@@ -206,10 +207,17 @@ def body_rows(body, state, scratch, reach, sc, out):
         mid = z[n, 0]
         half = 0.5 * body.body_length[n] * math.sin(z[n, 1])
         flex = bs.spine_smooth[n]
+        # the pitch with the spine's flexion turns the trunk about the pelvis;
+        # the nose-up part lifts the shoulders off planted fore feet: the cap
+        # holds them down by it (an adopted fox, whose fore legs stand
+        # straight, lifted its left fore foot off the ground late in every
+        # trot stance, its shoulders 20 mm higher than the cap allowed for)
+        flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
+        tilt_f = -body.body_length[n] * math.sin(min(flexing, 0.0))
         rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet,
-                                            reach, pelvis * drops_now[n, 0], flex))
+                                            reach, pelvis * drops_now[n, 0], flex, 0.0))
         rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet,
-                                            reach, pelvis * drops_now[n, 1], flex))
+                                            reach, pelvis * drops_now[n, 1], flex, tilt_f))
         if rise_h < mid - half or rise_f < mid + half:
             # the planted legs hold the trunk down: its centre is where they let it
             # be (it would jump up by the whole cap at lift-off); its rate goes on
@@ -217,7 +225,6 @@ def body_rows(body, state, scratch, reach, sc, out):
         bs.height[n] = bs.base_height[n] + rise_h
         bs.rise[n, 0] = rise_h
         bs.rise[n, 1] = rise_f
-        flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
         # (a positive pitch tips the nose down)
         out.pitch[n] = math.atan2((drops_now[n, 1] - drops_now[n, 0]) * pelvis
                                   - (rise_f - rise_h), body.body_length[n]) + flexing
