@@ -216,8 +216,27 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)
     local = matrices_about_axis(0, rel)
     local[..., 0, :, :] = matrices_about_axis(2, a) @ local[..., 0, :, :]
-    if foot_yaw is not None:  # the foot turned about its vertical to this world yaw
-        plane = np.arctan2(Rp[..., 0, 2], Rp[..., 2, 2])
-        local[..., n, :, :] = local[..., n, :, :] @ matrices_about_axis(
-            1, np.asarray(foot_yaw, dtype=float) - plane)
+    if foot_yaw is not None:  # the foot held level and at this world yaw: the leg
+        # plane's roll (its hinge axis's tilt) undone about the horizontal axis w
+        # square to the hinge, then the plane's heading (w's) turned to the yaw
+        B = np.broadcast_to(Rp, batch + (3, 3)) @ matrices_about_axis(2, a)
+        h = B[..., :, 0]
+        roll = np.arcsin(np.clip(h[..., 1], -1.0, 1.0))
+        w = np.stack([-h[..., 2], np.zeros(batch), h[..., 0]], axis=-1)
+        w /= np.linalg.norm(w, axis=-1, keepdims=True)
+        turn = matrices_about_axis(1, np.asarray(foot_yaw, dtype=float)
+                                   - np.arctan2(w[..., 0], w[..., 2])) @ _about(w, -roll)
+        foot = B @ matrices_about_axis(0, cum[..., n])             # the foot posed in the plane
+        above = B @ matrices_about_axis(0, cum[..., n - 1])        # the bone above's turn
+        local[..., n, :, :] = np.swapaxes(above, -1, -2) @ turn @ foot
     return local, reached
+
+
+def _about(axis, angle):
+    """Rotation matrices about unit ``axis`` (..., 3) by ``angle`` (...) (Rodrigues)."""
+    x, y, z = np.moveaxis(axis, -1, 0)
+    c, s = np.cos(angle), np.sin(angle)
+    k = 1.0 - c
+    return np.stack([np.stack([c + k * x * x, k * x * y - s * z, k * x * z + s * y], -1),
+                     np.stack([k * y * x + s * z, c + k * y * y, k * y * z - s * x], -1),
+                     np.stack([k * z * x - s * y, k * z * y + s * x, c + k * z * z], -1)], -2)

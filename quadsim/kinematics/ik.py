@@ -240,6 +240,64 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
 
 
 @_inner_nrt_free
+def _foot_turn(G, g, p, ca, sa, want):
+    """The turn that holds a foot level and at world yaw ``want`` (rad), in
+    its leg plane's frame, as its nine entries row by row.
+
+    The leg's plane is ``B = G[g, p] @ R_z(a)`` (``ca``, ``sa`` the cosine and
+    sine of the abduction ``a``). Its hinge axis ``h = B e_x`` tilts from the
+    horizontal by the plane's roll ``asin(h_y)``; a foot posed in the plane
+    rolls and turns with it. The turn ``C = R_y(d) R_w(-roll)`` undoes the
+    roll about the horizontal axis ``w`` square to the hinge, then turns the
+    plane's heading (``w``'s) to ``want`` about the vertical; returned is
+    ``B^T C B``.
+    """
+    hx = G[g, p, 0, 0] * ca + G[g, p, 0, 1] * sa
+    hy = G[g, p, 1, 0] * ca + G[g, p, 1, 1] * sa
+    hz = G[g, p, 2, 0] * ca + G[g, p, 2, 1] * sa
+    c = math.sqrt(hx * hx + hz * hz)  # the cosine of the roll
+    if c > 0.0:
+        wx, wz = -hz / c, hx / c  # horizontal and square to the hinge: the plane's heading
+    else:
+        c, wx, wz = 1.0, G[g, p, 0, 2], G[g, p, 2, 2]
+    s = -hy  # the sine of the turn (minus the roll)
+    k = 1.0 - c
+    # R_w(-roll), w = (wx, 0, wz) (Rodrigues)
+    r00, r01, r02 = c + k * wx * wx, -s * wz, k * wx * wz
+    r10, r11, r12 = s * wz, c, -s * wx
+    r20, r21, r22 = k * wz * wx, s * wx, c + k * wz * wz
+    d = want - math.atan2(wx, wz)
+    cy, sy = math.cos(d), math.sin(d)
+    # C = R_y(d) R
+    c00, c01, c02 = cy * r00 + sy * r20, cy * r01 + sy * r21, cy * r02 + sy * r22
+    c10, c11, c12 = r10, r11, r12
+    c20, c21, c22 = -sy * r00 + cy * r20, -sy * r01 + cy * r21, -sy * r02 + cy * r22
+    # B's columns
+    b00, b10, b20 = hx, hy, hz
+    b01 = -G[g, p, 0, 0] * sa + G[g, p, 0, 1] * ca
+    b11 = -G[g, p, 1, 0] * sa + G[g, p, 1, 1] * ca
+    b21 = -G[g, p, 2, 0] * sa + G[g, p, 2, 1] * ca
+    b02, b12, b22 = G[g, p, 0, 2], G[g, p, 1, 2], G[g, p, 2, 2]
+    # E = C B
+    e00 = c00 * b00 + c01 * b10 + c02 * b20
+    e01 = c00 * b01 + c01 * b11 + c02 * b21
+    e02 = c00 * b02 + c01 * b12 + c02 * b22
+    e10 = c10 * b00 + c11 * b10 + c12 * b20
+    e11 = c10 * b01 + c11 * b11 + c12 * b21
+    e12 = c10 * b02 + c11 * b12 + c12 * b22
+    e20 = c20 * b00 + c21 * b10 + c22 * b20
+    e21 = c20 * b01 + c21 * b11 + c22 * b21
+    e22 = c20 * b02 + c21 * b12 + c22 * b22
+    # B^T E
+    return (b00 * e00 + b10 * e10 + b20 * e20, b00 * e01 + b10 * e11 + b20 * e21,
+            b00 * e02 + b10 * e12 + b20 * e22,
+            b01 * e00 + b11 * e10 + b21 * e20, b01 * e01 + b11 * e11 + b21 * e21,
+            b01 * e02 + b11 * e12 + b21 * e22,
+            b02 * e00 + b12 * e10 + b22 * e20, b02 * e01 + b12 * e11 + b22 * e21,
+            b02 * e02 + b12 * e12 + b22 * e22)
+
+
+@_inner_nrt_free
 def _direction(x, y, h):
     """Cosine and sine of the angle ``atan2(y, x)`` of the vector ``(x, y)`` of length ``h``."""
     if h > 0.0:
@@ -257,11 +315,14 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
     of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``,
     ``heading + i``, the world yaw the foot keeps; ``bend`` is not read):
     writes the chains' local rotations ``local[t, j]`` and the misses
-    ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If ``heading >= 0`` each foot keeps the world
-    yaw its column gives whatever the yaw of its leg's plane (the girdles'
-    sway): a foot turns
-    about the vertical through its joint, the foot joint's local rotation
-    then ``R_x(flexion) @ R_y(yaw)``, so a planted foot's toe stays put.
+    ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If
+    ``heading >= 0`` each foot keeps the world yaw its column gives and stays
+    level whatever the yaw and roll of its leg's plane (the girdles' sway and
+    the abduction, :func:`_foot_turn`): it turns about the world vertical
+    through its joint, so a planted foot's toe stays put (its toe tip slid
+    up to 6 mm sideways in a rotary gallop's stance, and dipped 6 mm into the
+    ground in a tight turn, when the yaw was turned about the foot's own
+    axis).
 
     The bones' in-plane angles ``phi`` are carried with their cosines and
     sines, from which the pair (:func:`_solve_pair`) and the local rotations
@@ -372,6 +433,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                     cs = math.sin(cum)
                 cb = cc * pc + cs * ps
                 sb = cs * pc - cc * ps
+                p0c, p0s = pc, ps
                 pc = cc
                 ps = cs
                 j = leg_int[i, 4 + k]
@@ -382,19 +444,24 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                     local[t, j, 1, 0] = sa
                     local[t, j, 1, 1] = ca * cb
                     local[t, j, 1, 2] = -ca * sb
-                elif k == n and HEAD >= 0:  # R_x(rel) @ R_y(yaw): the foot's yaw held
-                    want = plan[t, HEAD + i]
-                    dy = want - math.atan2(G[g, p, 0, 2], G[g, p, 2, 2])
-                    cy, sy = math.cos(dy), math.sin(dy)
-                    local[t, j, 0, 0] = cy
-                    local[t, j, 0, 1] = 0.0
-                    local[t, j, 0, 2] = sy
-                    local[t, j, 1, 0] = sb * sy
-                    local[t, j, 1, 1] = cb
-                    local[t, j, 1, 2] = -sb * cy
-                    local[t, j, 2, 0] = -cb * sy
-                    local[t, j, 2, 1] = sb
-                    local[t, j, 2, 2] = cb * cy
+                elif k == n and HEAD >= 0:
+                    # the foot held level and at its world yaw: R_x(-cum_(n-1)) Q R_x(cum_n)
+                    q00, q01, q02, q10, q11, q12, q20, q21, q22 = _foot_turn(
+                        G, g, p, ca, sa, plan[t, HEAD + i])
+                    # M = Q R_x(cum_n)
+                    m01, m02 = q01 * cc + q02 * cs, -q01 * cs + q02 * cc
+                    m11, m12 = q11 * cc + q12 * cs, -q11 * cs + q12 * cc
+                    m21, m22 = q21 * cc + q22 * cs, -q21 * cs + q22 * cc
+                    # R_x(-cum_(n-1)) M
+                    local[t, j, 0, 0] = q00
+                    local[t, j, 0, 1] = m01
+                    local[t, j, 0, 2] = m02
+                    local[t, j, 1, 0] = p0c * q10 + p0s * q20
+                    local[t, j, 1, 1] = p0c * m11 + p0s * m21
+                    local[t, j, 1, 2] = p0c * m12 + p0s * m22
+                    local[t, j, 2, 0] = -p0s * q10 + p0c * q20
+                    local[t, j, 2, 1] = -p0s * m11 + p0c * m21
+                    local[t, j, 2, 2] = -p0s * m12 + p0c * m22
                     continue
                 else:
                     local[t, j, 0, 0] = 1.0
