@@ -123,6 +123,11 @@ class FeetState(NamedTuple):
         Time since lift-off (s), infinite before the first.
     drop : ndarray, shape (4,)
         How far each striking foot was put down onto the ground this frame (m).
+    struck : ndarray of bool, shape (4,)
+        The foot struck the ground this frame.
+    attitude : ndarray, shape (4, 4)
+        The world rotation ``(w, x, y, z)`` each foot struck with: a planted foot
+        keeps it, a lifted one eases from it to the pose's as its offset fades.
     """
 
     planted: np.ndarray
@@ -131,6 +136,8 @@ class FeetState(NamedTuple):
     hold: np.ndarray
     air: np.ndarray
     drop: np.ndarray
+    struck: np.ndarray
+    attitude: np.ndarray
 
 
 class PlaceState(NamedTuple):

@@ -268,12 +268,53 @@ def place_row(frame, rig, tuning, state, ramps, out):
     root[1] -= sag
     _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M, out.legs[4, 0])
     rotations, ground = out.rotations, out.ground
+    fk_row(rig.parents, rig.offsets, L, root, G, P)
+    _hold_attitudes(rig, tuning, state.feet, G, P, L, M[14], rotations)
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
-    fk_row(rig.parents, rig.offsets, L, root, G, P)
     for i in range(4):
         f = feet[i]
         ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
+
+
+@njit(cache=True, inline="always")
+def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
+    """Each planted foot keeps the world rotation it struck with, and a lifted one
+    eases from it to the pose's as its offset fades (``L``, ``G`` and ``P`` of the
+    feet and the joints below them updated; ``W`` (3, 3) and the feet's rows of
+    ``rotations`` (J, 4) work space).
+
+    The two-bone IK swings the pair and leaves the bones below at their clip
+    angles, so a planted paw turned with the lower leg as the body passed over
+    it, its toe tip sliding 5-9 mm while the paw joint stayed put.
+    """
+    parents, offsets = rig.parents, rig.offsets
+    J = parents.shape[0]
+    fade_t = tuning.swing_fade
+    for i in range(4):
+        f = rig.feet[i]
+        q = rotations[f]
+        if feet.struck[i]:
+            quaternion_from_matrix(G[f], feet.attitude[i])
+        w = 1.0 if feet.planted[i] else 1.0 - _smoothstep(feet.air[i] / fade_t)
+        if w <= 0.0:
+            continue
+        quaternion_from_matrix(G[f], q)
+        slerp_one(q, feet.attitude[i], w, q)
+        matrix_from_quaternion(q, W)
+        mul_tn_into(G[parents[f]], W, L[f])
+        copy_into(W, G[f])
+        for j in range(f + 1, J):  # the joints below the foot follow it
+            a = parents[j]
+            while a > f:
+                a = parents[a]
+            if a != f:
+                continue
+            p = parents[j]
+            for r in range(3):
+                P[j, r] = P[p, r] + G[p, r, 0] * offsets[j, 0] + G[p, r, 1] * offsets[j, 1] \
+                    + G[p, r, 2] * offsets[j, 2]
+            mul_into(G[p], L[j], G[j])
 
 
 @njit(cache=True, inline="always")
@@ -450,7 +491,8 @@ def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
         if x > 0.0:
             ty = over + (x - x * x / (2.0 * CAP_EASE) if x < CAP_EASE else 0.5 * CAP_EASE)
         ty = max(ty, g + MIN_CLEARANCE_FRACTION * clear)
-        if contacts[i] and not planted:        # strike: the plant, on the ground
+        feet.struck[i] = contacts[i] and not planted
+        if feet.struck[i]:                     # strike: the plant, on the ground
             plant[i, 0], plant[i, 1], plant[i, 2] = tx, g, tz
             drop[i] = ty - g
         else:

@@ -130,13 +130,15 @@ class FootPlanter:
     Attributes
     ----------
     state : FeetState
-        Per leg (LF, RF, LH, RH): planted, plant, offset, hold, air and drop
+        Per leg (LF, RF, LH, RH): planted, plant, offset, hold, air, drop, struck and
+        attitude
         (:class:`~quadsim.horse.bundles.FeetState`); the properties below are its fields.
     """
 
     def __init__(self) -> None:
         self.state = FeetState(np.zeros(4, dtype=np.bool_), np.zeros((4, 3)), np.zeros((4, 2)),
-                               np.zeros((4, 2)), np.full(4, np.inf), np.zeros(4))
+                               np.zeros((4, 2)), np.full(4, np.inf), np.zeros(4),
+                               np.zeros(4, dtype=np.bool_), np.tile([1.0, 0, 0, 0], (4, 1)))
 
     @property
     def planted(self) -> np.ndarray:
