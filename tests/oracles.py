@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.frames import UP
+from quadsim.kinematics.ik import SWING_LIFT_BAND, SWING_LIFT_FOLD, SWING_PAIR_REACH
 from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.locomotion.cpg import TWO_PI, CPGParams
 from quadsim.locomotion.footpath import SWING_KNOTS
@@ -101,11 +102,15 @@ def arc_advance(position, heading, speed, yaw_rate, tau):
 
 
 # ------------------------------------------------------------ leg IK
-def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
+def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None):
     """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
 
     The pair runs from Q (below the pre bones) to C (the target less the
-    post bones). Returns how far the foot falls short of the target (m).
+    post bones). Where ``lift`` (per leg, 0 to 1: a swinging foot's weight) is
+    positive, C's component down the leg is first eased, by that weight, to
+    keep the pair within SWING_PAIR_REACH of its span (a soft minimum over
+    SWING_LIFT_BAND of it).
+    Returns how far the foot falls short of the (eased) target (m).
     """
     L = geom.lengths
     k0 = geom.pair
@@ -114,6 +119,16 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t):
     cf = fwd_t - (L[..., post] * np.sin(phi[..., post])).sum(axis=-1)
     l1, l2 = L[..., k0], L[..., k0 + 1]
     vd, vf = cd - qd, cf - qf
+    if lift is not None:
+        span = l1 + l2
+        lim = SWING_PAIR_REACH * span
+        top = np.sqrt(np.maximum(lim * lim - vf * vf, 0.0))
+        k = SWING_LIFT_BAND * span
+        z = (vd - top) / k
+        eased = vd - k * np.logaddexp(0.0, np.maximum(z, -30.0))
+        on = lift > 0.0
+        vd = np.where(on & (vf * vf < lim * lim) & (vd > 0.0) & (z >= -30.0),
+                      vd + lift * (eased - vd), vd)
     r_true = np.hypot(vd, vf)
     # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
     r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), 0.998 * (l1 + l2) - 1e-6)
@@ -198,7 +213,9 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     for k in range(k0 + 2, n):
         phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * swing
                        + geom.fold[..., k] * fold)
-    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+    lift = None if foot_yaw is None else np.broadcast_to(
+        np.minimum(fold / SWING_LIFT_FOLD, 1.0), batch)
+    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)
     # keep the post joints inside their limits relative to the bone above,
     # then solve the pair again for the moved post bones (twice: the second
     # pass corrects the small change the re-solved pair makes)
@@ -207,7 +224,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
             rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
             rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
             phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
-        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t)
+        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)
 
     theta = A0 - phi  # cumulative rotation about +X of each chain joint
     toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)

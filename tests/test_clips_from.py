@@ -114,7 +114,10 @@ def test_the_fitted_laws_give_the_clips_contact_times(clean, dog):
         law = db.laws[c.gait]
         assert law.b < 0 and law.anchor == "law"
         tc = clip_contact_time(c)
-        assert abs(float(law.contact_time(c.speed)) / tc - 1) < 0.12, (c.name, law, tc)
+        # within 12 %, or within the frame in which a contact is measured (a canter's
+        # 0.12 s stance is 7 frames at 60 fps: one frame is 14 % of it)
+        miss = abs(float(law.contact_time(c.speed)) - tc)
+        assert miss < max(0.12 * tc, 1.0 / c.motion.fps), (c.name, law, tc)
 
 
 def test_fit_law_recovers_a_power_law_and_falls_back_over_one_speed():

@@ -52,6 +52,18 @@ PAIR_SLACK = 1e-6
 #: keeps about 7 degrees of bend (a locked straight leg reads as a prop, and
 #: snaps when it bends again); a target beyond is missed (``reached``).
 PAIR_REACH = 0.998
+#: A swinging leg's pair reaches at most this fraction of ``l1 + l2`` (its
+#: elbow or knee keeps about 20 degrees of bend): a swing target further away
+#: is lifted in the leg's plane rather than reached for with a straight leg
+#: (which locked it, then snapped it back at touchdown) ...
+SWING_PAIR_REACH = 0.985
+#: ... eased in over this fraction of ``l1 + l2`` (a soft minimum), and over
+#: the first and last frames of the swing, until its fold reaches this (the
+#: fold is ``sin^2(pi s)``: about the first and last 7 % of the swing; lifted
+#: from its first frame, a foot's measured stance came out short by up to 0.06
+#: of the stride).
+SWING_LIFT_BAND = 0.01
+SWING_LIFT_FOLD = 0.05
 #: A post joint with no limits in the character file folds within these (rad).
 DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
 #: Largest fold of a post bone (rad).
@@ -240,6 +252,24 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
 
 
 @_inner_nrt_free
+def _lifted(x, y, span):
+    """The down component ``x`` (m) of a swinging foot's target from its pair's top
+    (``y`` along the leg), eased so the pair reaches it with a bend: at most
+    :data:`SWING_PAIR_REACH` of the pair's ``span``, by a soft minimum over
+    :data:`SWING_LIFT_BAND` of it (the foot is lifted in the leg's plane where
+    the path would carry it out of reach)."""
+    lim = SWING_PAIR_REACH * span
+    if y * y >= lim * lim or x <= 0.0:
+        return x
+    top = math.sqrt(lim * lim - y * y)
+    k = SWING_LIFT_BAND * span
+    z = (x - top) / k
+    if z < -30.0:
+        return x
+    return x - k * (z + math.log1p(math.exp(-z)) if z > 0.0 else math.log1p(math.exp(z)))
+
+
+@_inner_nrt_free
 def _foot_turn(G, g, p, ca, sa, want):
     """The turn that holds a foot level and at world yaw ``want`` (rad), in
     its leg plane's frame, as its nine entries row by row.
@@ -412,8 +442,12 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                 for k in range(k0 + 2, n):
                     cd += leg_bones[i, 0, k] * cphi[k]
                     cf += leg_bones[i, 0, k] * sphi[k]
-                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf,
-                                                            down_t - cd, fwd_t - cf)
+                tx = down_t - cd
+                ty = fwd_t - cf
+                if HEAD >= 0 and plan[t, FOLD + i] > 0.0:  # swinging: lifted, not locked
+                    wl = min(plan[t, FOLD + i] / SWING_LIFT_FOLD, 1.0)
+                    tx = tx + wl * (_lifted(tx - qd, ty - qf, l1 + l2) + qd - tx)
+                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf, tx, ty)
                 cphi[k0], sphi[k0], cphi[k0 + 1], sphi[k0 + 1] = c0, s0, c1, s1
                 if limited:
                     phi[k0 + 1] = math.atan2(y, x)
