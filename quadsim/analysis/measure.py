@@ -16,14 +16,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from quadsim.analysis.angular import angular_figures
 from quadsim.analysis.appearance import _ground, appearance_from_arrays
 from quadsim.analysis.report import feet_over_ground, report_from_arrays
-from quadsim.analysis.smoothness import angular_velocity_vectors
 from quadsim.frames import Y
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
+from quadsim.skeleton import contacts_many
 from quadsim.skeleton.contacts import default_contact_thresholds, foot_contacts
 
-__all__ = ["Measured", "measure_motion"]
+__all__ = ["Measured", "measure_motion", "measure_motions"]
 
 
 @dataclass(frozen=True)
@@ -83,11 +84,10 @@ def measure_motion(motion, *, anatomy: Anatomy | None = None,
     feet = feet_over_ground(motion)
     height, speed = default_contact_thresholds(feet)
     contacts = foot_contacts(feet, fps, height=height, speed=speed)
-    omega = angular_velocity_vectors(motion.rotations, fps)
-    joint_speed = np.linalg.norm(omega, axis=-1)
+    omega, joint_speed, joint_accel = angular_figures(motion.rotations, fps)
     report = report_from_arrays(feet, motion.root_positions, fps, contacts, omega,
                                 joint_names=motion.skeleton.names, height=height,
-                                speed=speed, joint_speed=joint_speed)
+                                speed=speed, joint_speed=joint_speed, joint_accel=joint_accel)
     report["appearance"] = None
     if appearance:
         try:  # as appearance_report, the contacts of the anatomy's feet
@@ -105,3 +105,72 @@ def measure_motion(motion, *, anatomy: Anatomy | None = None,
     if ground is not None:
         contacts = foot_contacts(motion.foot_positions(), fps)
     return Measured(report, contacts)
+
+
+def _alike(motions) -> bool:
+    """Whether the motions share skeleton, feet, frame rate and length, on flat ground."""
+    m0 = motions[0]
+    return m0.foot_joints is not None and len(m0) >= 3 and all(
+        m.skeleton is m0.skeleton and m.foot_joints == m0.foot_joints
+        and float(m.fps) == float(m0.fps) and len(m) == len(m0)
+        and (getattr(m, "extras", None) or {}).get("ground") is None for m in motions)
+
+
+def measure_motions(motions, *, anatomy: Anatomy | None = None,
+                    appearance: bool = True) -> list[Measured]:
+    """:func:`measure_motion` of each motion, the contacts of all found together.
+
+    Motions of one skeleton, foot joints, frame rate and length on flat
+    ground (a sweep's batch) have their foot contacts and touchdowns found
+    in one pass (:mod:`quadsim.skeleton.contacts_many`); any others are
+    measured one by one. Either way each result is :func:`measure_motion`'s
+    to the last bit (tests hold it).
+
+    Parameters
+    ----------
+    motions : sequence of Motion
+    anatomy : Anatomy, optional
+        Their skeleton's anatomy (default: found from it).
+    appearance : bool
+        As :func:`measure_motion`.
+
+    Returns
+    -------
+    list of Measured
+        One per motion, in order.
+    """
+    motions = list(motions)
+    if not motions:
+        return []
+    if not _alike(motions):
+        return [measure_motion(m, anatomy=anatomy, appearance=appearance) for m in motions]
+    m0 = motions[0]
+    fps = float(m0.fps)
+    feet = np.stack([m.foot_positions() for m in motions])  # (N, T, 4, 3)
+    heights, speeds = contacts_many.default_thresholds(feet)
+    contacts = contacts_many.foot_contacts(feet, fps, heights, speeds)
+    evs = contacts_many.events(contacts, fps, feet, heights)
+    a = None
+    if appearance:
+        try:
+            a = anatomy or find_anatomy(m0.skeleton, m0.foot_joints)
+        except ValueError:  # no quadruped structure to measure the trunk and head on
+            a = None
+    same_feet = a is not None and tuple(a.feet) == tuple(m0.skeleton.indices(m0.foot_joints))
+    out = []
+    for i, m in enumerate(motions):
+        omega, joint_speed, joint_accel = angular_figures(m.rotations, fps)
+        report = report_from_arrays(feet[i], m.root_positions, fps, contacts[i], omega,
+                                    joint_names=m.skeleton.names, height=float(heights[i]),
+                                    speed=float(speeds[i]), joint_speed=joint_speed,
+                                    joint_accel=joint_accel, events=evs[i])
+        report["appearance"] = None
+        if a is not None:
+            try:
+                mine = contacts[i] if same_feet else foot_contacts(
+                    m.world_positions()[:, list(a.feet)], fps)
+                report["appearance"] = appearance_from_arrays(m, a, 0, mine, joint_speed)
+            except ValueError:
+                report["appearance"] = None
+        out.append(Measured(report, contacts[i]))
+    return out

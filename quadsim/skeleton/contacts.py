@@ -320,7 +320,7 @@ def _group_medians(values: np.ndarray, groups: np.ndarray, sizes: np.ndarray) ->
     return values[order][first + (sizes - 1) // 2]
 
 
-def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
+def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol, cut=None):
     """Planted height and first/last on-ground frame of the contacts [s, e) of one foot.
 
     The planted height is the (lower) median of the contact's heights -- or
@@ -328,7 +328,7 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
     besides a foot still descending or already rising. A frame is on the
     ground within a band above it of three times the median absolute
     deviation of the contact's heights (the foot's jitter), at least
-    ``GROUND_BAND_FLOOR`` and at most ``tol``.
+    ``GROUND_BAND_FLOOR`` and at most ``tol`` (m; a float, or one per contact).
 
     Returns
     -------
@@ -349,14 +349,14 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
     if cut.any():
         base = np.where(cut, np.minimum.reduceat(np.where(contact, y, np.inf), s), base)
     mad = _group_medians(np.abs(y[cf] - base[ids[cf]]), ids[cf], sizes)
-    band = np.clip(3.0 * mad, GROUND_BAND_FLOOR, max(tol, GROUND_BAND_FLOOR))
+    band = np.clip(3.0 * mad, GROUND_BAND_FLOOR, np.maximum(tol, GROUND_BAND_FLOOR))
     on = contact & (y <= (base + band)[ids])
     k0 = np.minimum.reduceat(np.where(on, frame, T), s)
     k1 = np.maximum.reduceat(np.where(on, frame, -1), s)
     return base, band, k0, k1
 
 
-def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, lo=0, hi=None):
+def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol, lo=0, hi=None):
     """Sub-frame touchdown and lift-off (in frames) of the contacts [s, e) of one foot.
 
     Touchdown: from the last frame ``a`` above the on-ground band, the foot

@@ -134,6 +134,22 @@ class Motion:
         P.setflags(write=False)
         return G, P
 
+    def _given_kinematics(self, world_rotations: np.ndarray, world_positions: np.ndarray) -> None:
+        """Hand the motion its forward kinematics, computed elsewhere *from its own
+        rotations* (by the same kernels, so the same bits :meth:`world_positions`
+        would find): a batch that found them for many motions at once
+        (:func:`quadsim.dataset.clips.generate`). Shapes (T, J, 3, 3) and (T, J, 3);
+        kept read-only."""
+        shape = self.rotations.shape[:2]
+        G, P = np.asarray(world_rotations), np.asarray(world_positions)
+        if G.shape != shape + (3, 3) or P.shape != shape + (3,):
+            raise ValueError(f"forward kinematics of shapes {G.shape}, {P.shape}; expected "
+                             f"{shape + (3, 3)}, {shape + (3,)}")
+        G, P = G.view(), P.view()
+        G.setflags(write=False)
+        P.setflags(write=False)
+        self.__dict__["_fk"] = (G, P)  # what the cached property would hold
+
     def world_positions(self) -> np.ndarray:
         """World positions of every joint, shape (T, J, 3) (m)."""
         return self._fk[1]
