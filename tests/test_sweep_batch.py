@@ -12,10 +12,11 @@ import sys
 import numpy as np
 import pytest
 
+import quadsim
 from quadsim.analysis.angular import _compiled, _numpy, angular_figures, compiled_path
 from quadsim.analysis.measure import measure_motion, measure_motions
 from quadsim.analysis.smoothness import angular_acceleration, angular_velocity_vectors
-from quadsim.dataset import generate, parse_grid
+from quadsim.dataset import generate, npz_bytes, parse_grid
 from quadsim.dataset.clips import make_clips
 from quadsim.skeleton import contacts_many
 from quadsim.skeleton.contacts import _events, _tolerance, foot_contacts
@@ -60,7 +61,9 @@ def test_a_batch_measured_together_gives_each_clip_the_figures_it_has_alone(batc
     for m, got in zip(batch, together):
         want = measure_motion(_fresh(m))
         assert _same(got.report, want.report)
-        assert np.array_equal(got.contacts, want.contacts) and got.contacts.flags.c_contiguous
+        assert np.array_equal(got.contacts, want.contacts)
+        # laid out alike too: a .npz file stores the layout
+        assert got.contacts.strides == want.contacts.strides
         assert got.report["appearance"]["strides"] > 0
 
 
@@ -125,6 +128,12 @@ def test_a_clip_gives_the_same_bytes_and_figures_whatever_shares_its_batch(clips
         want = together[e["id"]]
         assert e["data"] == want["data"]
         assert _same(e["metrics"], want["metrics"])
+    # and the file of a lone simulation, its contacts measured alone
+    c = clips[7]
+    alone = quadsim.simulate(c.character, quadsim.Command(
+        speed=c.speed, gait=c.gait, turn_rate=np.radians(c.turn_rate_deg_s)),
+        seconds=c.seconds, fps=c.fps, seed=c.seed)
+    assert together[c.id]["data"] == npz_bytes(alone)
 
 
 @pytest.mark.skipif(platform.system() != "Linux" or platform.libc_ver()[0] != "glibc",

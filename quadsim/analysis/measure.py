@@ -146,10 +146,13 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
         return [measure_motion(m, anatomy=anatomy, appearance=appearance) for m in motions]
     m0 = motions[0]
     fps = float(m0.fps)
-    feet = np.stack([m.foot_positions() for m in motions])  # (N, T, 4, 3)
+    each = [m.foot_positions() for m in motions]  # as measure_motion has them
+    feet = np.stack(each)  # (N, T, 4, 3)
     heights, speeds = contacts_many.default_thresholds(feet)
-    contacts = contacts_many.foot_contacts(feet, fps, heights, speeds)
-    evs = contacts_many.events(contacts, fps, feet, heights)
+    together = contacts_many.foot_contacts(feet, fps, heights, speeds)
+    evs = contacts_many.events(together, fps, feet, heights)
+    # and laid out as measure_motion has them (a .npz stores the layout)
+    contacts = [contacts_many.laid_out_as(c, f) for c, f in zip(together, each)]
     a = None
     if appearance:
         try:
@@ -160,7 +163,7 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
     out = []
     for i, m in enumerate(motions):
         omega, joint_speed, joint_accel = angular_figures(m.rotations, fps)
-        report = report_from_arrays(feet[i], m.root_positions, fps, contacts[i], omega,
+        report = report_from_arrays(each[i], m.root_positions, fps, contacts[i], omega,
                                     joint_names=m.skeleton.names, height=float(heights[i]),
                                     speed=float(speeds[i]), joint_speed=joint_speed,
                                     joint_accel=joint_accel, events=evs[i])

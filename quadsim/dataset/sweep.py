@@ -221,7 +221,8 @@ def _warm_up(tasks) -> None:
     process (each would load them again otherwise)."""
     from dataclasses import replace
 
-    from quadsim.dataset.clips import clip_bytes, generate, measure
+    from quadsim.dataset.clips import BATCH_MIN_ROWS, generate, measure, measure_clips, \
+        npz_bytes
 
     seen = set()
     for t in tasks:
@@ -229,9 +230,13 @@ def _warm_up(tasks) -> None:
         if spec.source in seen:
             continue
         seen.add(spec.source)
-        m = generate([replace(spec, seconds=3.0 / spec.fps)])[0]
+        short = replace(spec, seconds=3.0 / spec.fps)
+        m = generate([short])[0]  # a clip alone
         measure(m)
-        clip_bytes(m, "npz")
+        npz_bytes(m)
+        if any(len(x) >= BATCH_MIN_ROWS and x[0].source == spec.source for x in tasks):
+            batch = generate([short] * BATCH_MIN_ROWS)  # and a batch: its own kernels
+            npz_bytes(batch[0], measure_clips(batch)[0].contacts)
 
 
 def _stop_workers(pool) -> None:

@@ -33,7 +33,7 @@ from quadsim.skeleton.contacts import (
     default_contact_thresholds,
 )
 
-__all__ = ["default_thresholds", "events", "foot_contacts"]
+__all__ = ["default_thresholds", "events", "foot_contacts", "laid_out_as"]
 
 
 def _check(feet) -> np.ndarray:
@@ -118,6 +118,22 @@ def foot_contacts(feet, fps: float, heights, speeds, *,
         keep = k1 + 1 - k0 >= int(min_frames)
         out = _ranges_mask(k0[keep], k1[keep] + 1, N * 4 * L)
     return np.ascontiguousarray(out.reshape(N, 4, L)[:, :, :T].transpose(0, 2, 1))
+
+
+def laid_out_as(contacts, feet) -> np.ndarray:
+    """``contacts`` (T, 4) in the memory layout
+    :func:`~quadsim.skeleton.contacts.foot_contacts` gives its result for ``feet``
+    (T, 4, 3): that of its first test on them (which follows the feet's own
+    layout), so that a file storing the contacts has the same bytes either way."""
+    f = np.asarray(feet, dtype=float)
+    # foot_contacts' own expression, thresholds aside: its result is laid out as this
+    low = f[..., Y] - 0.0 <= 0.0
+    step = np.linalg.norm(np.diff(f[..., [X, Z]], axis=0), axis=-1)
+    inf = np.full((1, 4), np.inf)
+    like = low & (np.minimum(np.concatenate([inf, step]), np.concatenate([step, inf])) <= 0.0)
+    out = np.empty_like(like)
+    out[...] = contacts
+    return out
 
 
 def events(contacts, fps: float, feet, heights) -> list[list[dict]]:
