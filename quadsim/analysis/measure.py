@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadsim.analysis.angular import angular_figures
-from quadsim.analysis.appearance import _ground, appearance_from_arrays
+from quadsim.analysis.appearance import _ground, appearance_from_arrays, appearance_many
 from quadsim.analysis.report import feet_over_ground, report_from_arrays
 from quadsim.frames import Y
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
@@ -160,20 +160,22 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
         except ValueError:  # no quadruped structure to measure the trunk and head on
             a = None
     same_feet = a is not None and tuple(a.feet) == tuple(m0.skeleton.indices(m0.foot_joints))
-    out = []
+    reports, speeds_of = [], []
     for i, m in enumerate(motions):
         omega, joint_speed, joint_accel = angular_figures(m.rotations, fps)
-        report = report_from_arrays(each[i], m.root_positions, fps, contacts[i], omega,
-                                    joint_names=m.skeleton.names, height=float(heights[i]),
-                                    speed=float(speeds[i]), joint_speed=joint_speed,
-                                    joint_accel=joint_accel, events=evs[i])
-        report["appearance"] = None
-        if a is not None:
-            try:
-                mine = contacts[i] if same_feet else foot_contacts(
-                    m.world_positions()[:, list(a.feet)], fps)
-                report["appearance"] = appearance_from_arrays(m, a, 0, mine, joint_speed)
-            except ValueError:
-                report["appearance"] = None
-        out.append(Measured(report, contacts[i]))
-    return out
+        reports.append(report_from_arrays(
+            each[i], m.root_positions, fps, contacts[i], omega, joint_names=m.skeleton.names,
+            height=float(heights[i]), speed=float(speeds[i]), joint_speed=joint_speed,
+            joint_accel=joint_accel, events=evs[i]))
+        reports[-1]["appearance"] = None
+        speeds_of.append(joint_speed)
+    if a is not None:
+        try:
+            mine = contacts if same_feet else [
+                foot_contacts(m.world_positions()[:, list(a.feet)], fps) for m in motions]
+            found = appearance_many(motions, a, mine, speeds_of)
+        except ValueError:  # some cannot be measured: each as measure_motion would
+            found = [measure_motion(m, anatomy=a).report["appearance"] for m in motions]
+        for r, f in zip(reports, found):
+            r["appearance"] = f
+    return [Measured(r, c) for r, c in zip(reports, contacts)]
