@@ -55,6 +55,19 @@ def test_a_batch_hands_each_motion_the_forward_kinematics_of_its_own_rotations(b
         assert not m.world_positions().flags.writeable
 
 
+def test_a_batchs_motions_hold_what_a_checked_motion_holds(batch):
+    for m in batch[:3]:
+        checked = _fresh(m)
+        for k in ("root_positions", "rotations", "contacts", "gaits"):
+            mine, want = getattr(m, k), getattr(checked, k)
+            assert mine.dtype == want.dtype and np.array_equal(mine, want)
+            assert not mine.flags.writeable and mine.flags.c_contiguous
+        assert set(m.extras) == set(checked.extras) and m.foot_joints == checked.foot_joints
+        assert all(not v.flags.writeable and np.array_equal(v, checked.extras[k])
+                   for k, v in m.extras.items())
+        assert m.fps == 60.0 and isinstance(m.fps, float)
+
+
 def test_a_batch_measured_together_gives_each_clip_the_figures_it_has_alone(batch):
     together = measure_motions(batch)
     assert len(together) == len(batch)

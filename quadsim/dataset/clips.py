@@ -124,14 +124,14 @@ def generate(specs: Sequence[ClipSpec]) -> list:
             duty[:, k], amp[:, k], theta[:, k] = fr["duty"], fr["amplitude"], st.cpg.theta
             labels.append(b.labels)
     phase = np.mod(theta / (2.0 * math.pi), 1.0)
-    gaits = np.array(labels, dtype=object).T  # (n, T)
+    gaits = np.ascontiguousarray(np.array(labels, dtype=object).T)  # (n, T)
     out = []
     for i in range(n):
-        m = Motion(ch.skeleton, first.fps, root[i], quats[i], contacts=contacts[i],
-                   gaits=gaits[i], foot_joints=ch.foot_joints,
-                   extras={"phase": phase[i], "spine": spine[i], "duty": duty[i],
-                           "speed": v[i], "ik_error": err[i], "heading": heading[i],
-                           "cpg_amplitude": amp[i]})
+        # the batch's own arrays, in the form Motion(...) would check and copy them to
+        m = Motion._of_checked_arrays(
+            ch.skeleton, first.fps, root[i], quats[i], contacts[i], gaits[i], ch.foot_joints,
+            {"phase": phase[i], "spine": spine[i], "duty": duty[i], "speed": v[i],
+             "ik_error": err[i], "heading": heading[i], "cpg_amplitude": amp[i]})
         m._given_kinematics(G[i], P[i])
         out.append(m)
     return out

@@ -216,27 +216,30 @@ def _worker_init(threads: int = 0) -> None:  # pragma: no cover - runs in a work
             pass
 
 
+_WARM: set[tuple[str, int]] = set()  # (character file, clips a task) warmed up here
+
+
 def _warm_up(tasks) -> None:
     """Load the compiled kernels here once, before the workers are forked from this
-    process (each would load them again otherwise)."""
+    process (each would load them again otherwise): once a process for each
+    character and path (a clip alone, a batch)."""
     from dataclasses import replace
 
     from quadsim.dataset.clips import BATCH_MIN_ROWS, generate, measure, measure_clips, \
         npz_bytes
 
-    seen = set()
     for t in tasks:
         spec = t[0]
-        if spec.source in seen:
-            continue
-        seen.add(spec.source)
         short = replace(spec, seconds=3.0 / spec.fps)
-        m = generate([short])[0]  # a clip alone
-        measure(m)
-        npz_bytes(m)
-        if any(len(x) >= BATCH_MIN_ROWS and x[0].source == spec.source for x in tasks):
+        if (spec.source, 1) not in _WARM:
+            m = generate([short])[0]  # a clip alone
+            measure(m)
+            npz_bytes(m)
+            _WARM.add((spec.source, 1))
+        if len(t) >= BATCH_MIN_ROWS and (spec.source, BATCH_MIN_ROWS) not in _WARM:
             batch = generate([short] * BATCH_MIN_ROWS)  # and a batch: its own kernels
             npz_bytes(batch[0], measure_clips(batch)[0].contacts)
+            _WARM.add((spec.source, BATCH_MIN_ROWS))
 
 
 def _stop_workers(pool) -> None:
