@@ -132,6 +132,18 @@ def test_the_compiled_angular_figures_are_numpys_to_the_last_bit(batch):
             assert np.array_equal(a, b)
 
 
+def test_the_compiled_hinge_angles_are_numpys_to_the_last_bit(batch):
+    from quadsim.analysis.angular import _hinges_compiled, _hinges_numpy, hinge_angles
+
+    P = np.stack([m.world_positions() for m in batch[:3]])
+    p, j, c = [1, 2, 5, 6], [2, 3, 6, 7], [3, 4, 7, 8]
+    assert np.array_equal(hinge_angles(P, p, j, c), _hinges_numpy(P, p, j, c))
+    flat = np.zeros((4, 6, 3))  # chords of zero length: arctan2(0, +0), not (0, -0)
+    flat[:, 1] = flat[:, 2] = [-1.0, -2.0, -3.0]
+    assert np.array_equal(_hinges_compiled(flat, [0], [1], [2]),
+                          _hinges_numpy(flat, [0], [1], [2]))
+
+
 def test_a_clip_gives_the_same_bytes_and_figures_whatever_shares_its_batch(clips):
     """A resumed run batches other clips together: each clip must not notice."""
     together = {e["id"]: e for e in make_clips(clips)}

@@ -1,4 +1,5 @@
-"""The joints' angular velocities, speeds and accelerations of a motion, compiled.
+"""The joints' angular velocities, speeds and accelerations of a motion, and the
+interior angles of its hinges, compiled.
 
 :func:`angular_figures` gives at once what
 :func:`~quadsim.analysis.smoothness.angular_velocity_vectors`, its norms
@@ -15,6 +16,7 @@ them. That summation order is NumPy's implementation, not a promise: on
 first use the compiled path is compared with the NumPy code on a probe of
 random rotations (large and small steps, both signs), and where any number
 differs in any bit the NumPy code is used instead (:func:`compiled_path`).
+:func:`hinge_angles` is checked the same way.
 """
 
 from __future__ import annotations
@@ -22,9 +24,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["angular_figures", "compiled_path"]
+__all__ = ["angular_figures", "compiled_path", "hinge_angles"]
 
 _COMPILED: list[bool] = []  # [the compiled path gives NumPy's bits], once found
+_HINGES_COMPILED: list[bool] = []  # the same of hinge_angles
 
 
 @njit(cache=True)
@@ -138,3 +141,67 @@ def angular_figures(rotations, fps: float) -> tuple[np.ndarray, np.ndarray, np.n
     if q.ndim != 3 or q.shape[-1] != 4 or len(q) < 2 or not compiled_path():
         return _numpy(q, fps)
     return _compiled(q, fps)
+
+
+@njit(cache=True)
+def _hinge_terms(P, p, j, c, cross_norm, dot):
+    """Per pose and hinge, of the chords ``a = P[j] - P[p]`` and ``b = P[c] - P[j]``:
+    ``|a x b|`` and ``a . b``, each summed as NumPy's ``norm`` and ``einsum`` sum."""
+    for t in range(P.shape[0]):
+        for h in range(p.shape[0]):
+            a0 = P[t, j[h], 0] - P[t, p[h], 0]
+            a1 = P[t, j[h], 1] - P[t, p[h], 1]
+            a2 = P[t, j[h], 2] - P[t, p[h], 2]
+            b0 = P[t, c[h], 0] - P[t, j[h], 0]
+            b1 = P[t, c[h], 1] - P[t, j[h], 1]
+            b2 = P[t, c[h], 2] - P[t, j[h], 2]
+            c0 = a1 * b2 - a2 * b1  # np.cross's order
+            c1 = a2 * b0 - a0 * b2
+            c2 = a0 * b1 - a1 * b0
+            cross_norm[t, h] = np.sqrt((c0 * c0 + c1 * c1) + c2 * c2)
+            dot[t, h] = 0.0 + ((a0 * b0 + a2 * b2) + a1 * b1)  # einsum's zero is never -0
+
+
+def _hinges_numpy(P, p, j, c) -> np.ndarray:
+    a, b = P[..., j, :] - P[..., p, :], P[..., c, :] - P[..., j, :]
+    return 180.0 - np.degrees(np.arctan2(np.linalg.norm(np.cross(a, b), axis=-1),
+                                         np.einsum("...i,...i->...", a, b)))
+
+
+def _hinges_compiled(P, p, j, c) -> np.ndarray:
+    lead = P.shape[:-2]
+    flat = np.ascontiguousarray(P, dtype=float).reshape((-1,) + P.shape[-2:])
+    n, d = np.empty((len(flat), len(p))), np.empty((len(flat), len(p)))
+    idx = [np.asarray(x, dtype=np.int64) for x in (p, j, c)]
+    _hinge_terms(flat, *idx, n, d)
+    return (180.0 - np.degrees(np.arctan2(n, d))).reshape(lead + (len(p),))
+
+
+def hinge_angles(P, parents, joints, children) -> np.ndarray:
+    """Interior angle at each hinge joint between its two chords, in degrees.
+
+    Parameters
+    ----------
+    P : array-like, shape (..., J, 3)
+        Joint world positions (m).
+    parents, joints, children : sequence of int, length H
+        Each hinge's parent, joint and child.
+
+    Returns
+    -------
+    ndarray, shape (..., H)
+        ``180 - angle(P[joint] - P[parent], P[child] - P[joint])`` (degrees,
+        180 straight), the numbers of the NumPy expression to the last bit.
+    """
+    P = np.asarray(P, dtype=float)
+    if not _HINGES_COMPILED:
+        rng = np.random.default_rng(20261203)
+        probe = rng.standard_normal((50, 6, 3))
+        probe[:5, 2] = probe[:5, 1]  # a chord of zero length
+        probe[5:9, 3] = 2.0 * probe[5:9, 2] - probe[5:9, 1]  # straight: the cross is ~0
+        hp, hj, hc = [0, 1, 2, 1], [1, 2, 3, 4], [2, 3, 4, 5]
+        _HINGES_COMPILED.append(bool(np.array_equal(_hinges_compiled(probe, hp, hj, hc),
+                                                     _hinges_numpy(probe, hp, hj, hc))))
+    if _HINGES_COMPILED[0] and P.ndim >= 2 and P.size:
+        return _hinges_compiled(P, parents, joints, children)
+    return _hinges_numpy(P, list(parents), list(joints), list(children))

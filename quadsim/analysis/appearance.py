@@ -250,8 +250,10 @@ def _inner_angles(P, hinges) -> np.ndarray | None:
     """Interior angle (degrees) of every hinge, (..., T, H), from positions (..., T, J, 3)."""
     if not hinges:
         return None
+    from quadsim.analysis.angular import hinge_angles
+
     _, p, j, c = (list(x) for x in zip(*hinges))
-    return 180.0 - np.degrees(_angle(P[..., j, :] - P[..., p, :], P[..., c, :] - P[..., j, :]))
+    return hinge_angles(P, p, j, c)  # 180 - _angle(P[j] - P[p], P[c] - P[j]), in degrees
 
 
 def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarray,

@@ -10,6 +10,17 @@ it does not matter which other clips share its batch (tests hold both).
 Fewer than :data:`BATCH_MIN_ROWS` clips are simulated one by one instead,
 which is faster for so few.
 
+As each step is posed, its local rotation matrices become the clips'
+quaternions and, while still in the cache, the forward kinematics *of those
+quaternions* (:mod:`quadsim.dataset.kernels`), which each motion is handed:
+the very numbers it would compute itself. A batch's motions are then
+measured together (:func:`measure_clips`,
+:func:`quadsim.analysis.measure.measure_motions`: their contacts, touchdowns
+and per-frame arrays in one pass, each clip's figures read from its own),
+which gives every clip exactly the figures, contacts and file it would have
+measured alone -- so a resumed run, which batches other clips together,
+writes the same bytes (tests hold it).
+
 A clip's file is made in memory (:func:`clip_bytes`): an ``.npz`` holds the
 arrays of :func:`quadsim.io.npz.npz_arrays`, stored uncompressed in a zip
 whose every entry has the same fixed date, so the bytes depend on the motion
