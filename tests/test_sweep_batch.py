@@ -15,6 +15,7 @@ import pytest
 import quadsim
 from quadsim.analysis.angular import _compiled, _numpy, angular_figures, compiled_path
 from quadsim.analysis.measure import measure_motion, measure_motions
+from quadsim.analysis.report import foot_slide
 from quadsim.analysis.smoothness import angular_acceleration, angular_velocity_vectors
 from quadsim.dataset import generate, npz_bytes, parse_grid
 from quadsim.dataset.clips import make_clips
@@ -117,6 +118,12 @@ def test_contacts_of_many_clips_are_each_clips_own_contacts():
             for k in ("s", "e", "on", "off"):
                 assert np.array_equal(a[k], b[k], equal_nan=True), (i, k)
     assert got[1][:, 0].all() and not got[2][:, 3].any()
+    found = contacts_many.runs(got)
+    slid = contacts_many.per_foot(contacts_many.slides(feet, got, found), found[3], len(feet))
+    for i in range(len(feet)):
+        for a, b in zip(slid[i], foot_slide(feet[i], got[i])[0]):
+            assert np.array_equal(a, b)
+    assert len(slid[2][3]) == 0 and len(slid[1][0]) == 1
 
 
 def test_the_compiled_angular_figures_are_numpys_to_the_last_bit(batch):

@@ -246,6 +246,42 @@ def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -
     return out
 
 
+def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
+    """Per motion of a batch, at every contact of its feet: the toe tip's depth below
+    the ground and its slide (m), and the foot's ground and descent speed over the
+    body's at touchdown and its ground speed over the body's after lift-off.
+
+    ``s``: :func:`_series` with a leading batch axis; ``contacts`` (N, T, 4). Each
+    list per foot in time order, the feet one after another (LF, RF, LH, RH).
+    """
+    from quadsim.skeleton import contacts_many as many
+
+    toes, body_speed, fvel, fdown = s["toes"], s["body_speed"], s["fvel"], s["fdown"]
+    N, T = contacts.shape[:2]
+    found = many.runs(contacts)
+    flat, st, e, leg = found
+    tip_y = many._legs_end_to_end(toes[..., Y], 0.0)
+    below = -np.minimum.reduceat(np.where(flat, tip_y, np.inf), st) if len(st) else \
+        np.zeros(0)
+    slides = many.slides(toes, contacts, found)
+    clip, foot, first = leg // 4, leg % 4, st - leg * (T + 1)  # first: the clip's frame
+    last = e - leg * (T + 1)
+    on = (first > 0) & (body_speed[clip, np.maximum(first, 1) % T] > 0.05)
+    k, f, i = clip[on], first[on], foot[on]
+    td = fvel[k, f - 1, i] / body_speed[k, f]
+    down = fdown[k, f - 1, i]
+    tdd = np.where(0.0 > down, 0.0, down) / body_speed[k, f]
+    off = (last < T) & (body_speed[clip, np.maximum(last - 1, 0)] > 0.05)
+    k2, f2, i2 = clip[off], last[off], foot[off]
+    lo = fvel[k2, f2 - 1, i2] / body_speed[k2, f2 - 1]
+
+    def split(x, which):
+        return np.split(x, np.searchsorted(which, np.arange(1, N)))
+
+    return list(zip(split(below, clip), split(slides, clip), split(td, k), split(tdd, k),
+                    split(lo, k2)))
+
+
 def _inner_angles(P, hinges) -> np.ndarray | None:
     """Interior angle (degrees) of every hinge, (..., T, H), from positions (..., T, J, 3)."""
     if not hinges:
@@ -290,6 +326,8 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     s = _series(P, G[:, list(a.feet)], G[:, a.head], _ground(motion)[k0:], a,
                 int(motion.skeleton.parents[a.head]), fps)
     s["inner"] = _inner_angles(P, hinges)
+    batch = {k: None if v is None else v[None] for k, v in s.items()}
+    (s["contacts"],) = _contact_arrays(batch, np.asarray(contacts, dtype=bool)[None])
     return _figures(a, fps, s, contacts, joint_speed, hinges)
 
 
@@ -327,9 +365,11 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
     hinges = _hinges(m0, a)
     s = _series(P, Gf, Gh, ground, a, int(m0.skeleton.parents[a.head]), fps)
     s["inner"] = _inner_angles(P, hinges)
+    at_contacts = _contact_arrays(s, np.asarray(np.stack(contacts), dtype=bool))
     out = []
     for i in range(len(motions)):
         mine = {k: None if v is None else v[i] for k, v in s.items()}
+        mine["contacts"] = at_contacts[i]
         out.append(_figures(a, fps, mine, contacts[i], joint_speeds[i], hinges))
     return out
 
@@ -358,33 +398,8 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         froude.append(fr)
         law.append(ALEXANDER[0] * fr ** ALEXANDER[1] if fr > 0 else np.nan)
 
-    # contacts: toe tips and foot speeds at the events, every contact of a foot at once
-    from quadsim.skeleton.contacts import _runs as _run_bounds
-
-    slides, below, td_ratio, td_down, lo_ratio = [], [], [], [], []
-    frame = np.arange(T)
-    for i in range(4):
-        c = contacts[:, i]
-        st, e = _run_bounds(c)
-        if len(st) == 0:
-            continue
-        tip = toes[:, i]
-        below.append(-np.minimum.reduceat(np.where(c, tip[:, Y], np.inf), st))
-        first = st[np.maximum(np.searchsorted(st, frame, side="right") - 1, 0)]
-        d = np.linalg.norm(tip[:, [X, Z]] - tip[first][:, [X, Z]], axis=1)
-        slides.append(np.maximum.reduceat(np.where(c, d, 0.0), st))
-        on = st[st > 0]
-        on = on[body_speed[on] > 0.05]
-        td_ratio.append(fvel[on - 1, i] / body_speed[on])
-        down = fdown[on - 1, i]
-        td_down.append(np.where(0.0 > down, 0.0, down) / body_speed[on])
-        off = e[e < T]
-        off = off[body_speed[off - 1] > 0.05]
-        lo_ratio.append(fvel[off - 1, i] / body_speed[off - 1])
-    below = np.concatenate(below) if below else np.zeros(0)
-    slides = np.concatenate(slides) if slides else np.zeros(0)
-    td_ratio, td_down, lo_ratio = (np.concatenate(x) if x else np.zeros(0)
-                                   for x in (td_ratio, td_down, lo_ratio))
+    # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
+    below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
 
     # flight: no foot down
     accel = []

@@ -151,6 +151,9 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
     heights, speeds = contacts_many.default_thresholds(feet)
     together = contacts_many.foot_contacts(feet, fps, heights, speeds)
     evs = contacts_many.events(together, fps, feet, heights)
+    found = contacts_many.runs(together)
+    slid = contacts_many.per_foot(contacts_many.slides(feet, together, found), found[3],
+                                  len(motions))
     # and laid out as measure_motion has them (a .npz stores the layout)
     contacts = [contacts_many.laid_out_as(c, f) for c, f in zip(together, each)]
     a = None
@@ -166,7 +169,7 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
         reports.append(report_from_arrays(
             each[i], m.root_positions, fps, contacts[i], omega, joint_names=m.skeleton.names,
             height=float(heights[i]), speed=float(speeds[i]), joint_speed=joint_speed,
-            joint_accel=joint_accel, events=evs[i]))
+            joint_accel=joint_accel, events=evs[i], slides=slid[i]))
         reports[-1]["appearance"] = None
         speeds_of.append(joint_speed)
     if a is not None:

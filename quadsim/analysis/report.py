@@ -179,7 +179,7 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
 def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start=0.0,
                        joint_names=None, height: float | None = None,
                        speed: float | None = None, joint_speed=None,
-                       joint_accel=None, events=None) -> dict:
+                       joint_accel=None, events=None, slides=None) -> dict:
     """:func:`report_from_positions` of the part measured, its contacts already found.
 
     For callers that measure a motion several ways and compute what the
@@ -211,6 +211,9 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
         The feet's touchdowns and lift-offs (``contacts._events`` of
         ``contacts``, ``feet`` and the tolerance of ``height``) when already
         found (:func:`quadsim.skeleton.contacts_many.events`).
+    slides : list of 4 ndarrays, optional
+        :func:`foot_slide` of ``feet`` and ``contacts`` (m) when already found
+        (:func:`quadsim.skeleton.contacts_many.slides`).
 
     Returns
     -------
@@ -232,7 +235,10 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
     duty = _duty(table)
     t_lh = evs[_LH]["on"][np.isfinite(evs[_LH]["on"])]
     phase = _phases([ev["on"][np.isfinite(ev["on"])] for ev in evs])
-    slides, max_slide = foot_slide(f, contacts)
+    if slides is None:
+        slides, max_slide = foot_slide(f, contacts)
+    else:  # as foot_slide finds the largest
+        max_slide = max((float(x.max()) for x in slides if len(x)), default=0.0)
     depth = penetration_depth(f)
     legs = {}
     for i, name in enumerate(LEGS):

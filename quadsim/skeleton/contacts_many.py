@@ -33,7 +33,8 @@ from quadsim.skeleton.contacts import (
     default_contact_thresholds,
 )
 
-__all__ = ["default_thresholds", "events", "foot_contacts", "laid_out_as"]
+__all__ = ["default_thresholds", "events", "foot_contacts", "laid_out_as", "per_foot", "runs",
+           "slides"]
 
 
 def _check(feet) -> np.ndarray:
@@ -61,12 +62,72 @@ def default_thresholds(feet) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _legs_end_to_end(values: np.ndarray, fill) -> np.ndarray:
-    """(N, T, 4) per-frame values as one flat array of N * 4 legs of T + 1 frames,
-    each leg followed by one frame of ``fill``."""
+    """(N, T, 4, ...) per-frame values as one flat array of N * 4 legs of T + 1 frames,
+    each leg followed by one frame of ``fill``: shape (N * 4 * (T + 1), ...)."""
     N, T = values.shape[:2]
-    flat = np.full((N, 4, T + 1), fill, dtype=values.dtype)
-    flat[:, :, :T] = values.transpose(0, 2, 1)
-    return flat.reshape(-1)
+    rest = values.shape[3:]
+    flat = np.full((N, 4, T + 1) + rest, fill, dtype=values.dtype)
+    flat[:, :, :T] = np.moveaxis(values, 2, 1)
+    return flat.reshape((-1,) + rest)
+
+
+def runs(contacts) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Every contact of every clip's feet, laid end to end (see the module notes).
+
+    Parameters
+    ----------
+    contacts : array-like of bool, shape (N, T, 4)
+
+    Returns
+    -------
+    flat : ndarray of bool, shape (N * 4 * (T + 1),)
+        The contacts, leg after leg, each leg followed by a frame out of contact.
+    s, e : ndarray of int, shape (n,)
+        Each contact's first and (exclusive) last frame in ``flat``, in order.
+    leg : ndarray of int, shape (n,)
+        Each contact's clip and foot, ``4 * clip + foot``.
+    """
+    c = np.asarray(contacts, dtype=bool)
+    flat = _legs_end_to_end(c, False)
+    s, e = _runs(flat)
+    return flat, s, e, s // (c.shape[1] + 1)
+
+
+def slides(points, contacts, found=None) -> np.ndarray:
+    """How far a point of each foot slides during each of its contacts (m).
+
+    The figure of :func:`quadsim.analysis.report.foot_slide` (and of the toe
+    tips' slide in :mod:`quadsim.analysis.appearance`): the largest horizontal
+    distance of the point from where it was on the contact's first frame,
+    over the contact's frames -- here of every contact of every clip at once.
+
+    Parameters
+    ----------
+    points : array-like, shape (N, T, 4, 3)
+        The points of the four feet (m).
+    contacts : array-like of bool, shape (N, T, 4)
+    found : tuple, optional
+        :func:`runs` of ``contacts`` when already found.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        One per contact, in the order of :func:`runs`.
+    """
+    flat, s, _, _ = runs(contacts) if found is None else found
+    if not len(s):
+        return np.zeros(0)
+    p = _legs_end_to_end(np.asarray(points, dtype=float), 0.0)
+    start = s[np.maximum(np.searchsorted(s, np.arange(len(flat)), side="right") - 1, 0)]
+    d = np.linalg.norm((p - p[start])[:, [X, Z]], axis=-1)
+    return np.maximum.reduceat(np.where(flat, d, 0.0), s)
+
+
+def per_foot(values: np.ndarray, leg: np.ndarray, n_clips: int) -> list[list[np.ndarray]]:
+    """Per-contact ``values`` in the order of :func:`runs`, split per clip and foot."""
+    cuts = np.searchsorted(leg, np.arange(1, 4 * n_clips))
+    feet = np.split(np.asarray(values), cuts)
+    return [feet[4 * i:4 * i + 4] for i in range(n_clips)]
 
 
 def foot_contacts(feet, fps: float, heights, speeds, *,
