@@ -175,3 +175,25 @@ def test_a_worker_can_keep_the_memory_it_frees():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "True"
+
+
+def test_group_medians_pick_what_one_sort_by_group_and_value_picks():
+    from quadsim.skeleton.contacts import _group_medians
+
+    rng = np.random.default_rng(3)
+    sizes = rng.integers(1, 120, 400)
+    sizes[::40] = 500  # long blocks: sorted another way
+    v = np.round(rng.standard_normal(sizes.sum()), 1)  # ties, and 0.0 beside -0.0
+    zero = v == 0
+    v[zero] = np.where(rng.random(zero.sum()) < 0.5, -0.0, 0.0)
+    groups = np.repeat(np.arange(len(sizes)), sizes)
+
+    def by_lexsort(x):
+        first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        return x[np.lexsort((x, groups))][first + (sizes - 1) // 2]
+
+    got = _group_medians(v, groups, sizes)
+    want = by_lexsort(v)
+    assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
+    v[5] = np.nan  # NaN: the one sort still decides
+    assert np.array_equal(_group_medians(v, groups, sizes), by_lexsort(v), equal_nan=True)
