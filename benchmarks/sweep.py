@@ -22,8 +22,10 @@ shared machine):
 - ``end_to_end``: :func:`quadsim.dataset.run_sweep` into an empty folder
   with 1, 2, the CPU count and twice the CPU count of local worker
   processes (clips/s, character-frames/s), with ``overhead_ms_per_clip``:
-  the CPU time per clip on one worker beyond the stages' (the sweep's own
-  machinery: tasks, manifest, progress, compaction), and
+  the CPU time per clip on one worker (the sweep in this process) beyond the
+  stages' (the sweep's own machinery: tasks, manifest, progress,
+  compaction; and this process's allocator, which gives freed memory back
+  where a worker's keeps it), and
   ``startup_s``: a sweep of two clips on two workers (forking the workers,
   compacting the manifest);
 - ``files_only``: the same clips generated and written by 2 worker
@@ -317,7 +319,7 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
     st = stages(clips, repeats)
     parts = ", ".join(f"{k} {v:.2f} ms ({100 * st['share'][k]:.0f} %)"
                       for k, v in st["cpu_ms_per_clip"].items())
-    log(f"  per clip, one process, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
+    log(f"  per clip, one worker, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
         f"({st['total_ms_per_clip']:.2f} ms wall-clock)")
     free = [free_cores(2)]
     e2e = end_to_end(g, workers, repeats)

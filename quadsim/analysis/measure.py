@@ -8,6 +8,15 @@ feet's contacts and the joints' angular velocities. :func:`measure_motion`
 computes each of these once and gives it to both figures (and the contacts
 back to the caller, for a ``.npz`` file's ``contacts``): the figures are
 exactly those of the separate calls.
+
+:func:`measure_motions` measures a batch of motions of one skeleton, frame
+rate and length (a sweep's): their contacts, touchdowns, slides and the
+appearance's per-frame arrays are found for the whole batch at once
+(:mod:`quadsim.skeleton.contacts_many`,
+:func:`~quadsim.analysis.appearance.appearance_many`), the angular
+velocities compiled (:mod:`quadsim.analysis.angular`), and each motion's
+figures are read from its own arrays by the code above: every result is
+:func:`measure_motion`'s, to the last bit.
 """
 
 from __future__ import annotations

@@ -12,6 +12,10 @@ atomically and its bytes depend only on the clip's parameters.
 A stopped run (SIGTERM, Ctrl-C) stops its workers, whose unfinished files
 are removed; the next run removes any temporary file left by a harder stop,
 skips the finished clips and makes the rest.
+
+Before forking local workers this process loads the compiled kernels once
+(a clip alone and a batch), and each worker keeps the memory it frees for
+its next arrays (:func:`keep_freed_memory`); neither changes a byte.
 """
 
 from __future__ import annotations
