@@ -83,8 +83,11 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     -------
     list of Motion
         One per spec, ``frames`` long, as :func:`quadsim.simulate` gives it
-        (planned contacts, gait labels, extras); fewer than
-        :data:`BATCH_MIN_ROWS` clips are simulated one by one.
+        (planned contacts, gait labels, extras), its forward kinematics
+        already found; fewer than :data:`BATCH_MIN_ROWS` clips are simulated
+        one by one. A batch's motions hold read-only views of the batch's
+        arrays (one motion kept keeps them all: copy it, ``m[:]``, to let
+        the rest go).
     """
     from quadsim.config import constant_command
     from quadsim.dataset.kernels import quaternions_and_kinematics
