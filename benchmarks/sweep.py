@@ -11,17 +11,21 @@ shared machine):
 - ``in_memory``: :class:`~quadsim.locomotion.batch.BatchController` stepping
   the same clips, posed, one batch per character, nothing kept or written
   (character-frames per second): the reference;
-- ``stages``: per clip, in this process, the sweep's steps one by one --
-  ``generate`` (batched, the motions built), ``measure`` (the figures of
-  ``quadsim metrics``, the joints' world positions, contacts and angular
-  velocities found once for all of them and for the file), ``encode`` (the
-  ``.npz`` bytes), ``publish`` (the file written atomically, its manifest
-  line appended) -- and each one's share;
+- ``stages``: per clip, in one worker process set up as the sweep's, the
+  sweep's steps one by one on the batches two workers get -- ``generate``
+  (batched: the motions built, with their quaternions and forward
+  kinematics), ``measure`` (the figures of ``quadsim metrics``, the batch's
+  contacts, touchdowns and per-frame arrays found together, each clip's
+  figures then read from its own), ``encode`` (the ``.npz`` bytes),
+  ``publish`` (the file written atomically, its manifest line appended) --
+  and each one's share;
 - ``end_to_end``: :func:`quadsim.dataset.run_sweep` into an empty folder
   with 1, 2, the CPU count and twice the CPU count of local worker
   processes (clips/s, character-frames/s), with ``overhead_ms_per_clip``:
-  the CPU time per clip on one worker beyond the stages' (the sweep's own
-  machinery: tasks, manifest, progress, compaction), and
+  the CPU time per clip on one worker (the sweep in this process) beyond the
+  stages' (the sweep's own machinery: tasks, manifest, progress,
+  compaction; and this process's allocator, which gives freed memory back
+  where a worker's keeps it), and
   ``startup_s``: a sweep of two clips on two workers (forking the workers,
   compacting the manifest);
 - ``files_only``: the same clips generated and written by 2 worker
@@ -115,9 +119,24 @@ def in_memory(clips, repeats: int) -> dict:
 
 
 def stages(clips, repeats: int) -> dict:
-    """Per-clip milliseconds of each step of making a clip, in this process."""
-    from quadsim.dataset.clips import generate, measure_clip, npz_bytes
+    """Per-clip milliseconds of each step of making a clip, in one worker process set up
+    as the sweep's (:func:`quadsim.dataset.sweep._worker_init`)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from quadsim.dataset.sweep import _worker_init, cpu_count
+
+    ctx = multiprocessing.get_context("fork" if "fork" in multiprocessing.get_all_start_methods()
+                                      else None)
+    with ProcessPoolExecutor(1, mp_context=ctx, initializer=_worker_init,
+                             initargs=(max(1, cpu_count() // 2),)) as pool:
+        return pool.submit(_stages, clips, repeats).result()
+
+
+def _stages(clips, repeats: int) -> dict:
+    from quadsim.dataset.clips import generate, measure_clips, npz_bytes
     from quadsim.dataset.manifest import publish
+    from quadsim.dataset.sweep import tasks_of
 
     def once(folder: Path) -> dict:
         keys = ("generate", "measure", "encode", "publish")
@@ -130,19 +149,19 @@ def stages(clips, repeats: int) -> dict:
             t[key] += b[0] - a[0]
             cpu[key] += b[1] - a[1]
 
-        for group in _groups(clips):
+        for group in tasks_of(clips, 2):  # batches as two workers have them
             c0 = clock()
             motions = generate(group)
-            add("generate", c0, clock())
-            for c, m in zip(group, motions):
-                c0 = clock()
-                measured = measure_clip(m)
+            c1 = clock()
+            measured = measure_clips(motions)
+            add("generate", c0, c1)
+            add("measure", c1, clock())
+            for c, m, x in zip(group, motions, measured):
                 c1 = clock()
-                data = npz_bytes(m, measured.contacts)
+                data = npz_bytes(m, x.contacts)
                 c2 = clock()
-                publish(folder, {"id": c.id, "path": c.path, "metrics": measured.report}, data)
+                publish(folder, {"id": c.id, "path": c.path, "metrics": x.report}, data)
                 c3 = clock()
-                add("measure", c0, c1)
                 add("encode", c1, c2)
                 add("publish", c2, c3)
         n = len(clips)
@@ -300,7 +319,7 @@ def run(seeds: int = 16, repeats: int = 3, log=print) -> dict:
     st = stages(clips, repeats)
     parts = ", ".join(f"{k} {v:.2f} ms ({100 * st['share'][k]:.0f} %)"
                       for k, v in st["cpu_ms_per_clip"].items())
-    log(f"  per clip, one process, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
+    log(f"  per clip, one worker, CPU time: {parts}; {st['total_cpu_ms_per_clip']:.2f} ms "
         f"({st['total_ms_per_clip']:.2f} ms wall-clock)")
     free = [free_cores(2)]
     e2e = end_to_end(g, workers, repeats)

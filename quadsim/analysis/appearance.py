@@ -43,7 +43,7 @@ from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import foot_contacts
 
 __all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "STRAIGHT_DEG", "appearance_from_arrays",
-           "appearance_report",
+           "appearance_many", "appearance_report",
            "format_appearance", "spine_flexion", "toe_positions", "trunk_pitch"]
 
 #: Alexander's dynamic-similarity stride law ``lambda / h = a Fr^b`` (1976).
@@ -74,40 +74,34 @@ def toe_positions(motion, anatomy: Anatomy | None = None) -> np.ndarray:
 
 
 def trunk_pitch(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
-    """Nose-up pitch of the pelvis-to-withers line, shape (T,) (rad)."""
-    d = positions[:, anatomy.withers] - positions[:, anatomy.pelvis]
-    return np.arctan2(d[:, Y], np.hypot(d[:, X], d[:, Z]))
+    """Nose-up pitch of the pelvis-to-withers line, shape (T,) (rad), from joint world
+    positions (T, J, 3) (m); any leading axes are kept."""
+    d = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
+    return np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z]))
 
 
 def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
-    """Angle between the pelvis-to-mid-spine and mid-spine-to-withers chords, (T,) (rad).
+    """Angle between the pelvis-to-mid-spine and mid-spine-to-withers chords, (T,) (rad),
+    from joint world positions (T, J, 3) (m); any leading axes are kept.
 
     Signed: positive while the back arches (the mid-spine above the
     pelvis-to-withers line, flexion), negative while it sags (extension),
     so that a stride's range spans both (an unsigned angle would fold an
     extension onto a flexion of the same size).
     """
-    a = positions[:, anatomy.mid_spine] - positions[:, anatomy.pelvis]
-    b = positions[:, anatomy.withers] - positions[:, anatomy.mid_spine]
+    a = positions[..., anatomy.mid_spine, :] - positions[..., anatomy.pelvis, :]
+    b = positions[..., anatomy.withers, :] - positions[..., anatomy.mid_spine, :]
     # the body's left: up x forward, forward the pelvis-to-withers line
-    fwd = positions[:, anatomy.withers] - positions[:, anatomy.pelvis]
-    left = np.stack([fwd[:, Z], np.zeros(len(fwd)), -fwd[:, X]], axis=-1)
+    fwd = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
+    left = np.stack([fwd[..., Z], np.zeros(fwd.shape[:-1]), -fwd[..., X]], axis=-1)
     # an arch turns the chords from rising to falling: a x b points to the left
-    sign = np.where(np.einsum("ti,ti->t", np.cross(a, b), left) > 0.0, 1.0, -1.0)
+    sign = np.where(np.einsum("...i,...i->...", np.cross(a, b), left) > 0.0, 1.0, -1.0)
     return sign * _angle(a, b)
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     cross = np.linalg.norm(np.cross(a, b), axis=-1)
     return np.arctan2(cross, np.einsum("...i,...i->...", a, b))
-
-
-def _head_pitch(motion, positions: np.ndarray, a: Anatomy) -> np.ndarray:
-    if a.head_from_parent:
-        d = positions[:, a.head] - positions[:, motion.skeleton.parents[a.head]]
-    else:
-        d = np.einsum("tij,j->ti", motion.world_rotations()[:, a.head], a.head_tip)
-    return np.arctan2(d[:, Y], np.hypot(d[:, X], d[:, Z]))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -219,6 +213,85 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
                                   angular_velocity(motion)[k0:])
 
 
+def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -> dict:
+    """The per-frame arrays the figures are read from, over any leading axes (a batch).
+
+    ``P`` (..., T, J, 3) joint world positions (m), ``Gfeet`` (..., T, 4, 3, 3)
+    the world rotations of ``a.feet``, ``Ghead`` (..., T, 3, 3) that of the
+    head (None when its pitch comes from its parent's position,
+    ``head_parent``), ``ground`` (..., T, 4) the ground under the feet (m).
+    Element by element the operations of a lone motion: the same numbers.
+    """
+    feet = P[..., list(a.feet), :].copy()
+    feet[..., Y] -= ground
+    toes = (P[..., list(a.feet), :] + np.einsum("...lij,lj->...li", Gfeet, a.toe_offsets)).copy()
+    toes[..., Y] -= ground
+    root = P[..., 0, :]
+    vel = np.gradient(root[..., [X, Z]], 1.0 / fps, axis=-2)
+    if a.head_from_parent:
+        d = P[..., a.head, :] - P[..., head_parent, :]
+    else:
+        d = np.einsum("...ij,j->...i", Ghead, a.head_tip)
+    out = {
+        "feet": feet, "toes": toes, "root": root,
+        "body_speed": np.linalg.norm(vel, axis=-1),
+        "mid": 0.5 * (P[..., a.pelvis, :] + P[..., a.withers, :]),
+        "pitch": trunk_pitch(P, a),
+        "flex": spine_flexion(P, a),
+        "head": np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z])),
+        "fvel": np.linalg.norm(np.diff(feet[..., [X, Z]], axis=-3), axis=-1) * fps,  # (T-1, 4)
+        "fdown": -np.diff(feet[..., Y], axis=-2) * fps,  # (T-1, 4), descent speed
+        "inner": None,
+    }
+    return out
+
+
+def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
+    """Per motion of a batch, at every contact of its feet: the toe tip's depth below
+    the ground and its slide (m), and the foot's ground and descent speed over the
+    body's at touchdown and its ground speed over the body's after lift-off.
+
+    ``s``: :func:`_series` with a leading batch axis; ``contacts`` (N, T, 4). Each
+    list per foot in time order, the feet one after another (LF, RF, LH, RH).
+    """
+    from quadsim.skeleton import contacts_many as many
+
+    toes, body_speed, fvel, fdown = s["toes"], s["body_speed"], s["fvel"], s["fdown"]
+    N, T = contacts.shape[:2]
+    found = many.runs(contacts)
+    flat, st, e, leg = found
+    tip_y = many._legs_end_to_end(toes[..., Y], 0.0)
+    below = -np.minimum.reduceat(np.where(flat, tip_y, np.inf), st) if len(st) else \
+        np.zeros(0)
+    slides = many.slides(toes, contacts, found)
+    clip, foot, first = leg // 4, leg % 4, st - leg * (T + 1)  # first: the clip's frame
+    last = e - leg * (T + 1)
+    on = (first > 0) & (body_speed[clip, np.maximum(first, 1) % T] > 0.05)
+    k, f, i = clip[on], first[on], foot[on]
+    td = fvel[k, f - 1, i] / body_speed[k, f]
+    down = fdown[k, f - 1, i]
+    tdd = np.where(0.0 > down, 0.0, down) / body_speed[k, f]
+    off = (last < T) & (body_speed[clip, np.maximum(last - 1, 0)] > 0.05)
+    k2, f2, i2 = clip[off], last[off], foot[off]
+    lo = fvel[k2, f2 - 1, i2] / body_speed[k2, f2 - 1]
+
+    def split(x, which):
+        return np.split(x, np.searchsorted(which, np.arange(1, N)))
+
+    return list(zip(split(below, clip), split(slides, clip), split(td, k), split(tdd, k),
+                    split(lo, k2)))
+
+
+def _inner_angles(P, hinges) -> np.ndarray | None:
+    """Interior angle (degrees) of every hinge, (..., T, H), from positions (..., T, J, 3)."""
+    if not hinges:
+        return None
+    from quadsim.analysis.angular import hinge_angles
+
+    _, p, j, c = (list(x) for x in zip(*hinges))
+    return hinge_angles(P, p, j, c)  # 180 - _angle(P[j] - P[p], P[c] - P[j]), in degrees
+
+
 def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarray,
                            joint_speed: np.ndarray) -> dict:
     """:func:`appearance_report` of ``motion`` from its contacts and joint speeds.
@@ -247,26 +320,77 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     """
     a = anatomy
     fps = float(motion.fps)
-    Pall = motion.world_positions()
-    P = Pall[k0:]
-    ground = _ground(motion)[k0:]
-    feet = P[:, list(a.feet)].copy()
-    feet[..., Y] -= ground
-    toes = toe_positions(motion, a)[k0:].copy()
-    toes[..., Y] -= ground
+    P = motion.world_positions()[k0:]
+    G = motion.world_rotations()[k0:]
+    hinges = _hinges(motion, a)
+    s = _series(P, G[:, list(a.feet)], G[:, a.head], _ground(motion)[k0:], a,
+                int(motion.skeleton.parents[a.head]), fps)
+    s["inner"] = _inner_angles(P, hinges)
+    batch = {k: None if v is None else v[None] for k, v in s.items()}
+    (s["contacts"],) = _contact_arrays(batch, np.asarray(contacts, dtype=bool)[None])
+    return _figures(a, fps, s, contacts, joint_speed, hinges)
+
+
+def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[dict]:
+    """:func:`appearance_from_arrays` of each motion from its first frame, their
+    per-frame arrays found together.
+
+    Parameters
+    ----------
+    motions : sequence of Motion, length N
+        Of one skeleton, frame rate and length (a sweep's batch).
+    anatomy : Anatomy
+    contacts : sequence of N ndarrays of bool, shape (T, 4)
+        Each motion's contacts of the feet ``anatomy.feet``, as
+        :func:`appearance_from_arrays` takes them.
+    joint_speeds : sequence of N ndarrays, shape (T - 1, J)
+        Each motion's joints' angular speeds (rad/s).
+
+    Returns
+    -------
+    list of dict
+        What :func:`appearance_from_arrays` gives each motion with ``k0 = 0``,
+        to the last bit: the batch's arrays are made by the same operations,
+        element by element, and each motion's figures read from its own.
+    """
+    a = anatomy
+    m0 = motions[0]
+    fps = float(m0.fps)
+    feet = list(a.feet)
+    P = np.stack([m.world_positions() for m in motions])
+    Gf = np.stack([m.world_rotations()[:, feet] for m in motions])
+    Gh = None if a.head_from_parent else np.stack([m.world_rotations()[:, a.head]
+                                                   for m in motions])
+    ground = np.stack([_ground(m) for m in motions])
+    hinges = _hinges(m0, a)
+    s = _series(P, Gf, Gh, ground, a, int(m0.skeleton.parents[a.head]), fps)
+    s["inner"] = _inner_angles(P, hinges)
+    at_contacts = _contact_arrays(s, np.asarray(np.stack(contacts), dtype=bool))
+    out = []
+    for i in range(len(motions)):
+        mine = {k: None if v is None else v[i] for k, v in s.items()}
+        mine["contacts"] = at_contacts[i]
+        out.append(_figures(a, fps, mine, contacts[i], joint_speeds[i], hinges))
+    return out
+
+
+def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed: np.ndarray,
+             hinges) -> dict:
+    """The figures of one motion from its per-frame arrays (:func:`_series`)."""
+    feet, toes, root = s["feet"], s["toes"], s["root"]
+    body_speed, mid, pitch, flex, head = (s[k] for k in ("body_speed", "mid", "pitch", "flex",
+                                                          "head"))
+    fvel, fdown = s["fvel"], s["fdown"]
     h = a.hip_height
-    root = P[:, 0]
-    vel = np.gradient(root[:, [X, Z]], 1.0 / fps, axis=0)
-    body_speed = np.linalg.norm(vel, axis=1)
-    T = len(P)
+    T = len(feet)
 
     # strides: left-hind touchdown to the next
     td = np.array([s for s, _ in _runs(contacts[:, _LH]) if s > 0], dtype=np.intp)
     bounds = list(zip(td[:-1], td[1:]))
     lengths, cadence, froude, law = [], [], [], []
-    for s, e in bounds:
-        dur = (e - s) / fps
-        dist = float(np.linalg.norm(root[e, [X, Z]] - root[s, [X, Z]]))
+    for s0, e in bounds:
+        dur = (e - s0) / fps
+        dist = float(np.linalg.norm(root[e, [X, Z]] - root[s0, [X, Z]]))
         v = dist / dur
         fr = v * v / (GRAVITY * h)
         lengths.append(dist / h)
@@ -274,57 +398,24 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
         froude.append(fr)
         law.append(ALEXANDER[0] * fr ** ALEXANDER[1] if fr > 0 else np.nan)
 
-    mid = 0.5 * (P[:, a.pelvis] + P[:, a.withers])
-    pitch = trunk_pitch(P, a)
-    flex = spine_flexion(P, a)
-    head = _head_pitch(motion, Pall, a)[k0:]
-
-    # contacts: toe tips and foot speeds at the events, every contact of a foot at once
-    from quadsim.skeleton.contacts import _runs as _run_bounds
-
-    slides, below, td_ratio, td_down, lo_ratio = [], [], [], [], []
-    fvel = np.linalg.norm(np.diff(feet[..., [X, Z]], axis=0), axis=-1) * fps  # (T-1, 4)
-    fdown = -np.diff(feet[..., Y], axis=0) * fps  # (T-1, 4), descent speed
-    frame = np.arange(T)
-    for i in range(4):
-        c = contacts[:, i]
-        s, e = _run_bounds(c)
-        if len(s) == 0:
-            continue
-        tip = toes[:, i]
-        below.append(-np.minimum.reduceat(np.where(c, tip[:, Y], np.inf), s))
-        first = s[np.maximum(np.searchsorted(s, frame, side="right") - 1, 0)]
-        d = np.linalg.norm(tip[:, [X, Z]] - tip[first][:, [X, Z]], axis=1)
-        slides.append(np.maximum.reduceat(np.where(c, d, 0.0), s))
-        on = s[s > 0]
-        on = on[body_speed[on] > 0.05]
-        td_ratio.append(fvel[on - 1, i] / body_speed[on])
-        down = fdown[on - 1, i]
-        td_down.append(np.where(0.0 > down, 0.0, down) / body_speed[on])
-        off = e[e < T]
-        off = off[body_speed[off - 1] > 0.05]
-        lo_ratio.append(fvel[off - 1, i] / body_speed[off - 1])
-    below = np.concatenate(below) if below else np.zeros(0)
-    slides = np.concatenate(slides) if slides else np.zeros(0)
-    td_ratio, td_down, lo_ratio = (np.concatenate(x) if x else np.zeros(0)
-                                   for x in (td_ratio, td_down, lo_ratio))
+    # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
+    below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
 
     # flight: no foot down
     accel = []
-    for s, e in _runs(~contacts.any(axis=1)):
-        if e - s >= MIN_FLIGHT_FRAMES and s > 0 and e < len(P):
-            t = np.arange(s, e) / fps
-            c2 = np.polyfit(t - t.mean(), mid[s:e, Y], 2)[0]
+    for s0, e in _runs(~contacts.any(axis=1)):
+        if e - s0 >= MIN_FLIGHT_FRAMES and s0 > 0 and e < T:
+            t = np.arange(s0, e) / fps
+            c2 = np.polyfit(t - t.mean(), mid[s0:e, Y], 2)[0]
             accel.append(2.0 * c2 / GRAVITY)
 
     # joints: angular speed from the local rotations, hinge locking in swing
     w = np.degrees(joint_speed)
     peak_j = int(np.argmax(w.max(axis=0))) if w.size else 0
     locked, locked_name = None, None
-    hinges = _hinges(motion, a)
     if hinges:
-        leg, p, j, c = (list(x) for x in zip(*hinges))
-        inner = 180.0 - np.degrees(_angle(P[:, j] - P[:, p], P[:, c] - P[:, j]))  # (T, H)
+        leg = [x[0] for x in hinges]
+        inner = s["inner"]  # (T, H)
         swing = ~contacts[:, leg]
         n_swing = swing.sum(axis=0)
         n_straight = (swing & (inner >= STRAIGHT_DEG)).sum(axis=0)
@@ -333,7 +424,7 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
                 continue
             frac = float(n_straight[k] / n_swing[k])
             if locked is None or frac > locked:
-                locked, locked_name = frac, a.names[j[k]]
+                locked, locked_name = frac, a.names[hinges[k][2]]
 
     return {
         "strides": len(bounds),

@@ -178,7 +178,8 @@ def report_from_positions(feet, root_positions, fps, *, rotations=None, joint_na
 
 def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start=0.0,
                        joint_names=None, height: float | None = None,
-                       speed: float | None = None, joint_speed=None) -> dict:
+                       speed: float | None = None, joint_speed=None,
+                       joint_accel=None, events=None, slides=None) -> dict:
     """:func:`report_from_positions` of the part measured, its contacts already found.
 
     For callers that measure a motion several ways and compute what the
@@ -204,6 +205,15 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
         :func:`default_contact_thresholds` of ``feet``.
     joint_speed : ndarray, shape (T - 1, J), optional
         The norms of ``omega`` when already computed.
+    joint_accel : ndarray, shape (T - 2, J), optional
+        ``|omega[t + 1] - omega[t]| * fps`` (rad/s^2) when already computed.
+    events : list of 4 dict, optional
+        The feet's touchdowns and lift-offs (``contacts._events`` of
+        ``contacts``, ``feet`` and the tolerance of ``height``) when already
+        found (:func:`quadsim.skeleton.contacts_many.events`).
+    slides : list of 4 ndarrays, optional
+        :func:`foot_slide` of ``feet`` and ``contacts`` (m) when already found
+        (:func:`quadsim.skeleton.contacts_many.slides`).
 
     Returns
     -------
@@ -220,12 +230,15 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
         speed = v0 if speed is None else speed
     h_used, v_used = float(height), float(speed)
     tol = _tolerance(h_used)
-    evs = _events(contacts, fps, f, tol)
+    evs = _events(contacts, fps, f, tol) if events is None else events
     table = _table(evs, f)
     duty = _duty(table)
     t_lh = evs[_LH]["on"][np.isfinite(evs[_LH]["on"])]
     phase = _phases([ev["on"][np.isfinite(ev["on"])] for ev in evs])
-    slides, max_slide = foot_slide(f, contacts)
+    if slides is None:
+        slides, max_slide = foot_slide(f, contacts)
+    else:  # as foot_slide finds the largest
+        max_slide = max((float(x.max()) for x in slides if len(x)), default=0.0)
     depth = penetration_depth(f)
     legs = {}
     for i, name in enumerate(LEGS):
@@ -255,9 +268,9 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
     if omega is not None:
         w = omega
         speeds = np.linalg.norm(w, axis=-1) if joint_speed is None else joint_speed
-        for key, val in (("max_angular_velocity", speeds),
-                         ("max_angular_acceleration",
-                          np.linalg.norm(np.diff(w, axis=0), axis=-1) * fps)):
+        accel = np.linalg.norm(np.diff(w, axis=0), axis=-1) * fps if joint_accel is None \
+            else joint_accel
+        for key, val in (("max_angular_velocity", speeds), ("max_angular_acceleration", accel)):
             if val.size:
                 t, j = np.unravel_index(np.argmax(val), val.shape)
                 report[key] = float(val[t, j])

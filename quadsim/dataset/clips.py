@@ -10,6 +10,17 @@ it does not matter which other clips share its batch (tests hold both).
 Fewer than :data:`BATCH_MIN_ROWS` clips are simulated one by one instead,
 which is faster for so few.
 
+As each step is posed, its local rotation matrices become the clips'
+quaternions and, while still in the cache, the forward kinematics *of those
+quaternions* (:mod:`quadsim.dataset.kernels`), which each motion is handed:
+the very numbers it would compute itself. A batch's motions are then
+measured together (:func:`measure_clips`,
+:func:`quadsim.analysis.measure.measure_motions`: their contacts, touchdowns
+and per-frame arrays in one pass, each clip's figures read from its own),
+which gives every clip exactly the figures, contacts and file it would have
+measured alone -- so a resumed run, which batches other clips together,
+writes the same bytes (tests hold it).
+
 A clip's file is made in memory (:func:`clip_bytes`): an ``.npz`` holds the
 arrays of :func:`quadsim.io.npz.npz_arrays`, stored uncompressed in a zip
 whose every entry has the same fixed date, so the bytes depend on the motion
@@ -29,7 +40,7 @@ import numpy as np
 from quadsim.dataset.grid import ClipSpec
 
 __all__ = ["BATCH_MIN_ROWS", "ZIP_DATE", "clip_bytes", "generate", "make_clips", "measure",
-           "measure_clip", "npz_bytes"]
+           "measure_clip", "measure_clips", "npz_bytes"]
 
 #: The date every entry of a sweep's ``.npz`` carries (zip's earliest).
 ZIP_DATE = (1980, 1, 1, 0, 0, 0)
@@ -72,12 +83,16 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     -------
     list of Motion
         One per spec, ``frames`` long, as :func:`quadsim.simulate` gives it
-        (planned contacts, gait labels, extras); fewer than
-        :data:`BATCH_MIN_ROWS` clips are simulated one by one.
+        (planned contacts, gait labels, extras), its forward kinematics
+        already found; fewer than :data:`BATCH_MIN_ROWS` clips are simulated
+        one by one. A batch's motions hold read-only views of the batch's
+        arrays (one motion kept keeps them all: copy it, ``m[:]``, to let
+        the rest go).
     """
     from quadsim.config import constant_command
-    from quadsim.kinematics.rotations import quaternions_from_matrices
+    from quadsim.dataset.kernels import quaternions_and_kinematics
     from quadsim.locomotion.batch import BatchController
+    from quadsim.skeleton.fk import skeleton_plan
     from quadsim.skeleton.motion import Motion
 
     first = specs[0]
@@ -101,7 +116,11 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     turn = np.array([c.turn_rate or 0.0 for c in cmds], dtype=float)
     gait = b.gait_ids([c.gait for c in cmds])
     J = ch.skeleton.n_joints
-    local = np.empty((n, T, J, 3, 3))
+    plan = skeleton_plan(ch.skeleton)
+    # clip-major arrays, one frame of every clip written a step: each clip's own
+    # arrays are then contiguous; the step's matrices become quaternions and the
+    # forward kinematics of those while still in the cache (quadsim.dataset.kernels)
+    quats, G, P = np.empty((n, T, J, 4)), np.empty((n, T, J, 3, 3)), np.empty((n, T, J, 3))
     root, contacts = np.empty((n, T, 3)), np.empty((n, T, 4), dtype=bool)
     heading, spine, v, duty = (np.empty((n, T)) for _ in range(4))
     err, amp, theta = np.empty((n, T, 4)), np.empty((n, T, 5)), np.empty((n, T, 4))
@@ -112,20 +131,23 @@ def generate(specs: Sequence[ClipSpec]) -> list:
         for k in range(T):
             # frame 0 is the starting state (a step of 0 s), as quadsim.simulate
             fr = b.step(speed, turn, None, gait, dt if k else 0.0, pose=True)
-            local[:, k], err[:, k] = fr["local_rotations"][0], fr["ik_error"][0]
-            root[:, k], contacts[:, k] = fr["root"], fr["contacts"]
+            quaternions_and_kinematics(fr["local_rotations"][0], fr["root"], plan,
+                                       quats[:, k], G[:, k], P[:, k])
+            err[:, k], root[:, k], contacts[:, k] = fr["ik_error"][0], fr["root"], fr["contacts"]
             heading[:, k], spine[:, k], v[:, k] = fr["heading"], fr["spine"], fr["speed"]
             duty[:, k], amp[:, k], theta[:, k] = fr["duty"], fr["amplitude"], st.cpg.theta
             labels.append(b.labels)
+    phase = np.mod(theta / (2.0 * math.pi), 1.0)
+    gaits = np.ascontiguousarray(np.array(labels, dtype=object).T)  # (n, T)
     out = []
     for i in range(n):
-        out.append(Motion(
-            ch.skeleton, first.fps, root[i], quaternions_from_matrices(local[i]),
-            contacts=contacts[i], gaits=np.array([row[i] for row in labels], dtype=object),
-            foot_joints=ch.foot_joints,
-            extras={"phase": np.mod(theta[i] / (2.0 * math.pi), 1.0), "spine": spine[i],
-                    "duty": duty[i], "speed": v[i], "ik_error": err[i],
-                    "heading": heading[i], "cpg_amplitude": amp[i]}))
+        # the batch's own arrays, in the form Motion(...) would check and copy them to
+        m = Motion._of_checked_arrays(
+            ch.skeleton, first.fps, root[i], quats[i], contacts[i], gaits[i], ch.foot_joints,
+            {"phase": phase[i], "spine": spine[i], "duty": duty[i], "speed": v[i],
+             "ik_error": err[i], "heading": heading[i], "cpg_amplitude": amp[i]})
+        m._given_kinematics(G[i], P[i])
+        out.append(m)
     return out
 
 
@@ -151,6 +173,18 @@ def measure_clip(motion):
 
     a = _anatomy(motion)
     return measure_motion(motion, anatomy=a, appearance=a is not None)
+
+
+def measure_clips(motions) -> list:
+    """:func:`measure_clip` of each of a batch's motions (one character, length and frame
+    rate), their contacts found together
+    (:func:`quadsim.analysis.measure.measure_motions`): the same figures and contacts."""
+    from quadsim.analysis.measure import measure_motions
+
+    if not motions:
+        return []
+    a = _anatomy(motions[0])
+    return measure_motions(motions, anatomy=a, appearance=a is not None)
 
 
 def measure(motion) -> dict:
@@ -215,8 +249,8 @@ def make_clips(specs: Sequence[ClipSpec], out: str | None = None) -> list[dict]:
 
     done = {}
     for group in _groups(specs):
-        for spec, motion in zip(group, generate(group)):
-            measured = measure_clip(motion)
+        motions = generate(group)
+        for spec, motion, measured in zip(group, motions, measure_clips(motions)):
             data = npz_bytes(motion, measured.contacts) if spec.format == "npz" else \
                 clip_bytes(motion, spec.format, _load(spec))
             entry = {"id": spec.id, **spec.parameters(), "path": spec.path,

@@ -96,6 +96,13 @@ def characters_dir() -> Path:
     env = os.environ.get("QUADSIM_CHARACTERS")
     if env:
         return Path(env)
+    return _packaged_characters_dir()
+
+
+@lru_cache(maxsize=1)
+def _packaged_characters_dir() -> Path:
+    """The package data's ``characters/`` folder, looked up once (a gait name is
+    resolved against its gait table many times a batch)."""
     folder = resources.files("quadsim.data") / "characters"
     if not isinstance(folder, os.PathLike):
         raise InputError("quadsim's data folder is not on the file system (a zipped "

@@ -41,6 +41,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 
@@ -314,13 +315,48 @@ def _events(contacts, fps, feet=None, tolerance=None) -> list[dict]:
 
 
 def _group_medians(values: np.ndarray, groups: np.ndarray, sizes: np.ndarray) -> np.ndarray:
-    """Lower median of ``values`` per group; ``groups`` ascending ids 0..n-1 of the given sizes."""
+    """Lower median of ``values`` per group; ``groups`` ascending ids 0..n-1 of the given sizes.
+
+    Each group's values are sorted by themselves, stably (compiled,
+    :func:`_block_medians`): the same pick as sorting all of them at once by group
+    and value (``np.lexsort``, still used where a value is NaN or a group empty).
+    """
+    values = np.ascontiguousarray(values, dtype=float)
+    sizes = np.asarray(sizes, dtype=np.int64)
+    if len(sizes) and sizes.min() >= 1 and sizes.sum() == len(values) \
+            and not np.isnan(values).any():
+        out = np.empty(len(sizes))
+        _block_medians(values, sizes, out)
+        return out
     order = np.lexsort((values, groups))
     first = np.concatenate([[0], np.cumsum(sizes)[:-1]])
     return values[order][first + (sizes - 1) // 2]
 
 
-def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
+@njit(cache=True)
+def _block_medians(values, sizes, out):
+    """``out[g]`` = the lower median of the ``g``-th block of ``values`` (``sizes[g]`` long)."""
+    scratch = np.empty(64)
+    i = 0
+    for g in range(sizes.shape[0]):
+        n = sizes[g]
+        if n > 64:  # stable, as lexsort: of equal values (0.0 and -0.0) the same one
+            part = values[i:i + n]
+            block = part[np.argsort(part, kind="mergesort")]
+        else:  # short: a (stable) insertion sort in place of a new array
+            block = scratch
+            for a in range(n):
+                x = values[i + a]
+                b = a
+                while b > 0 and block[b - 1] > x:
+                    block[b] = block[b - 1]
+                    b -= 1
+                block[b] = x
+        out[g] = block[(n - 1) // 2]
+        i += n
+
+
+def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol, cut=None):
     """Planted height and first/last on-ground frame of the contacts [s, e) of one foot.
 
     The planted height is the (lower) median of the contact's heights -- or
@@ -328,7 +364,7 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
     besides a foot still descending or already rising. A frame is on the
     ground within a band above it of three times the median absolute
     deviation of the contact's heights (the foot's jitter), at least
-    ``GROUND_BAND_FLOOR`` and at most ``tol``.
+    ``GROUND_BAND_FLOOR`` and at most ``tol`` (m; a float, or one per contact).
 
     Returns
     -------
@@ -349,14 +385,14 @@ def _planted(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, cut=None):
     if cut.any():
         base = np.where(cut, np.minimum.reduceat(np.where(contact, y, np.inf), s), base)
     mad = _group_medians(np.abs(y[cf] - base[ids[cf]]), ids[cf], sizes)
-    band = np.clip(3.0 * mad, GROUND_BAND_FLOOR, max(tol, GROUND_BAND_FLOOR))
+    band = np.clip(3.0 * mad, GROUND_BAND_FLOOR, np.maximum(tol, GROUND_BAND_FLOOR))
     on = contact & (y <= (base + band)[ids])
     k0 = np.minimum.reduceat(np.where(on, frame, T), s)
     k1 = np.maximum.reduceat(np.where(on, frame, -1), s)
     return base, band, k0, k1
 
 
-def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol: float, lo=0, hi=None):
+def _refine(y: np.ndarray, s: np.ndarray, e: np.ndarray, tol, lo=0, hi=None):
     """Sub-frame touchdown and lift-off (in frames) of the contacts [s, e) of one foot.
 
     Touchdown: from the last frame ``a`` above the on-ground band, the foot

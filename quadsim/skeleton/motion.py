@@ -97,6 +97,33 @@ class Motion:
             v.setflags(write=False)
             object.__setattr__(self, k, v)
 
+    @classmethod
+    def _of_checked_arrays(cls, skeleton: Skeleton, fps: float, root_positions: np.ndarray,
+                           rotations: np.ndarray, contacts: np.ndarray, gaits: np.ndarray,
+                           foot_joints: tuple[str, ...], extras: dict) -> Motion:
+        """A motion of arrays its maker already holds in the checked form (float
+        ``(T, 3)`` and unit ``(T, J, 4)``, bool ``(T, 4)``, object ``(T,)``, extras
+        ``(T, ...)``, foot joints of the skeleton): kept as they are, made read-only,
+        not copied nor checked again. For a batch that builds many motions of one
+        skeleton at once (:func:`quadsim.dataset.clips.generate`); anyone else
+        builds a ``Motion(...)``."""
+        m = object.__new__(cls)
+        arrays = {"root_positions": root_positions, "rotations": rotations,
+                  "contacts": contacts, "gaits": gaits}
+        for k, v in arrays.items():
+            v = v.view()
+            v.setflags(write=False)
+            object.__setattr__(m, k, v)
+        frozen = {}
+        for k, v in extras.items():
+            v = v.view()
+            v.setflags(write=False)
+            frozen[k] = v
+        for k, v in (("skeleton", skeleton), ("fps", float(fps)),
+                     ("foot_joints", tuple(foot_joints)), ("extras", frozen)):
+            object.__setattr__(m, k, v)
+        return m
+
     # ------------------------------------------------------------------ basics
     @classmethod
     def from_matrices(cls, skeleton: Skeleton, fps: float, root_positions, matrices, **kw):
@@ -133,6 +160,22 @@ class Motion:
         G.setflags(write=False)
         P.setflags(write=False)
         return G, P
+
+    def _given_kinematics(self, world_rotations: np.ndarray, world_positions: np.ndarray) -> None:
+        """Hand the motion its forward kinematics, computed elsewhere *from its own
+        rotations* (by the same kernels, so the same bits :meth:`world_positions`
+        would find): a batch that found them for many motions at once
+        (:func:`quadsim.dataset.clips.generate`). Shapes (T, J, 3, 3) and (T, J, 3);
+        kept read-only."""
+        shape = self.rotations.shape[:2]
+        G, P = np.asarray(world_rotations), np.asarray(world_positions)
+        if G.shape != shape + (3, 3) or P.shape != shape + (3,):
+            raise ValueError(f"forward kinematics of shapes {G.shape}, {P.shape}; expected "
+                             f"{shape + (3, 3)}, {shape + (3,)}")
+        G, P = G.view(), P.view()
+        G.setflags(write=False)
+        P.setflags(write=False)
+        self.__dict__["_fk"] = (G, P)  # what the cached property would hold
 
     def world_positions(self) -> np.ndarray:
         """World positions of every joint, shape (T, J, 3) (m)."""
