@@ -101,6 +101,42 @@ def test_a_gallop_report_measures_strides_trunk_contacts_and_joints(gallop):
     assert r["toe_slide_mm_p90"] >= 0 and r["touchdown_speed_ratio_p90"] > 0
 
 
+@pytest.mark.parametrize("cid,joints", [
+    ("leopard", {"LF_elbow", "RF_elbow", "LH_knee", "RH_knee"}),
+    ("horse", {"LF_elbow", "RF_elbow", "LH_stifle", "RH_stifle"})])
+def test_the_elbows_and_knees_are_found_from_the_bones_lengths(cid, joints):
+    """Of each leg's hinges, the one between its two longest bones is its elbow or
+    knee (a horse's is its stifle), found from the skeleton alone."""
+    from quadsim.analysis.appearance import _elbows_knees, _hinges
+
+    m = quadsim.run(cid, gait="walk", seconds=0.5)
+    a = find_anatomy(m.skeleton, m.foot_joints)
+    hinges = _hinges(m, a)
+    assert {a.names[hinges[k][2]] for k in _elbows_knees(m, hinges)} == joints
+
+
+def test_a_straightened_elbow_is_counted_locked(gallop):
+    """Turn the left fore elbow so that the forearm lies along the upper arm in
+    every frame: the elbows-and-knees figure sees it locked straight in every swing
+    frame (and in none before)."""
+    a = find_anatomy(gallop.skeleton, gallop.foot_joints)
+    chain = a.legs[0]
+    elbow = chain[list(a.names[j] for j in chain).index("LF_elbow")]
+    child = chain[chain.index(elbow) + 1]
+    off = gallop.skeleton.offsets
+    u = off[child] / np.linalg.norm(off[child])   # the forearm, in the elbow's frame
+    v = off[elbow] / np.linalg.norm(off[elbow])   # the upper arm, in its parent's
+    axis = np.cross(u, v)
+    half = 0.5 * math.acos(float(np.clip(u @ v, -1.0, 1.0)))
+    q = gallop.rotations.copy()
+    q[:, elbow] = np.concatenate([[math.cos(half)], axis / np.linalg.norm(axis) * math.sin(half)])
+    straight = type(gallop)(gallop.skeleton, gallop.fps, gallop.root_positions, q,
+                            foot_joints=gallop.foot_joints)
+    assert appearance_report(gallop, start=2.0)["elbow_knee_locked_fraction"] < 0.05
+    r = appearance_report(straight, start=2.0, anatomy=a)
+    assert r["elbow_knee_locked_fraction"] == 1.0 and r["elbow_knee_locked_joint"] == "LF_elbow"
+
+
 def test_flight_acceleration_sees_a_ballistic_fall(gallop):
     """Lift the whole body along a parabola of -g in each flight phase: the measured
     flight acceleration drops by one g, whatever the motion did before."""

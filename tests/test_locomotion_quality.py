@@ -75,6 +75,19 @@ def test_toe_tips_stay_on_the_ground_and_put_in_stance(character, gait):
     assert r["toe_slide_mm_p90"] <= 5.0
 
 
+@pytest.mark.parametrize("character,gait", [
+    (c, g) for c, g in _gait_cases() if g in ("trot", "transverse_gallop", "rotary_gallop")])
+def test_elbows_and_knees_keep_a_bend_in_swing(character, gait):
+    """In trot and gallop no elbow or knee is locked straight (177 degrees or more,
+    the issue's figure: the leg IK never straightens a pair past 173) and none is
+    nearly straight (170 or more) in more than 10 % of swing frames, measured from
+    the joints' world positions. When a swinging foot out of reach was reached for
+    with the leg as straight as it goes, 14-26 % of the swing frames were."""
+    r = appearance_report(steady(character, gait))
+    assert r["elbow_knee_locked_fraction"] == 0.0, r["elbow_knee_locked_joint"]
+    assert r["elbow_knee_near_straight_fraction"] < 0.10, r["elbow_knee_near_straight_fraction"]
+
+
 def test_toe_tips_stay_above_the_ground_in_a_tight_turning_walk():
     """A planted hoof keeps the yaw it landed with while the body turns over it, and
     stays level: in the horse's walk turning at 40 deg/s no toe tip goes under the

@@ -11,7 +11,7 @@ Alexander's law, scaled cadence, trunk pitch, heave and spine flexion ranges,
 head pitch range, the deepest toe tip and its slide, foot speed over body
 speed at touchdown (ground and descent) and after lift-off, the flight phases' vertical
 acceleration (median, g), peak joint speed and the worst hinge's locked share
-of swing frames. ``--markdown`` also prints the README's table (the walk, trot
+of swing frames, and the worst elbow's or knee's, locked and at 170 degrees or more. ``--markdown`` also prints the README's table (the walk, trot
 and rotary gallop of each character) from the same figures.
 """
 
@@ -35,7 +35,8 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
            ("slide", "toe_slide_mm_p90", ".1f"), ("td", "touchdown_speed_ratio_p90", ".2f"),
            ("tdv", "touchdown_descent_ratio_p90", ".2f"),
            ("lo", "liftoff_speed_ratio_p90", ".2f"), ("fl g", "flight_g", ".2f"),
-           ("w max", "peak_joint_speed_deg_s", ".0f"), ("lock%", "locked_pct", ".1f")]
+           ("w max", "peak_joint_speed_deg_s", ".0f"), ("lock%", "locked_pct", ".1f"),
+           ("ek%", "elbow_knee_pct", ".1f"), ("ek170", "elbow_knee_near_pct", ".1f")]
 
 
 def _cases(seconds: float):
@@ -58,7 +59,8 @@ def _num(x, fmt: str) -> str:
 def markdown(rows: dict) -> str:
     """The README's table ("How the motion measures") of the measured ``rows``."""
     out = ["| character, gait | stride / h | pitch | spine | flight | touchdown | lift-off "
-           "| joint speed | locked |", "|---|---|---|---|---|---|---|---|---|"]
+           "| joint speed | locked | elbows, knees at 170+ |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for name, r in rows.items():
         cid, _, gait = name.partition(" ")
         if gait not in README_GAITS:
@@ -73,7 +75,8 @@ def markdown(rows: dict) -> str:
             f"| {_num(r['touchdown_speed_ratio_p90'], '.2f')} / "
             f"{_num(r['touchdown_descent_ratio_p90'], '.2f')} "
             f"| {_num(r['liftoff_speed_ratio_p90'], '.2f')} "
-            f"| {_num(r['peak_joint_speed_deg_s'], ',.0f')} | {_num(r['locked_pct'], '.1f')} |")
+            f"| {_num(r['peak_joint_speed_deg_s'], ',.0f')} | {_num(r['locked_pct'], '.1f')} "
+            f"| {_num(r['elbow_knee_near_pct'], '.1f')} |")
     return "\n".join(out)
 
 
@@ -93,6 +96,10 @@ def main(argv=None) -> int:
         r["flight_g"] = float(np.median(acc)) if acc else None
         r["locked_pct"] = None if r["locked_swing_fraction"] is None else \
             100 * r["locked_swing_fraction"]
+        r["elbow_knee_pct"] = None if r["elbow_knee_locked_fraction"] is None else \
+            100 * r["elbow_knee_locked_fraction"]
+        r["elbow_knee_near_pct"] = None if r["elbow_knee_near_straight_fraction"] is None \
+            else 100 * r["elbow_knee_near_straight_fraction"]
         rows[name] = r
         print(f"{name:30s}" + "".join(
             f"{'-' if r[k] is None else format(r[k], f):>7s}" for _, k, f in COLUMNS))

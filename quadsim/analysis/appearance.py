@@ -24,7 +24,9 @@ so it works on any quadruped BVH:
   fitted to the girdles' mid-point height, in units of g;
 - **joints**: peak angular speed of every joint, and the share of swing
   frames in which a leg joint bent at rest (the elbows, knees, hocks) is
-  locked straight (interior angle at least :data:`STRAIGHT_DEG`).
+  locked straight (interior angle at least :data:`STRAIGHT_DEG`): the worst
+  of them, and the worst elbow or knee (in each leg the hinge between its
+  two longest bones), locked and nearly straight (:data:`NEAR_STRAIGHT_DEG`).
 
 Stance comes from :func:`~quadsim.skeleton.contacts.foot_contacts` on the foot
 joints (measured from the ground under them when the motion carries it);
@@ -42,7 +44,7 @@ from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import foot_contacts
 
-__all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "STRAIGHT_DEG", "appearance_from_arrays",
+__all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "NEAR_STRAIGHT_DEG", "STRAIGHT_DEG", "appearance_from_arrays",
            "appearance_many", "appearance_report",
            "format_appearance", "spine_flexion", "toe_positions", "trunk_pitch"]
 
@@ -52,6 +54,10 @@ ALEXANDER = (2.3, 0.3)
 MIN_FLIGHT_FRAMES = 4
 #: A joint this straight (interior angle, degrees) or straighter is locked.
 STRAIGHT_DEG = 177.0
+#: An elbow or knee this straight or straighter is nearly straight: the leg IK
+#: keeps a pair about 7 degrees from straight (173 degrees), which
+#: :data:`STRAIGHT_DEG` cannot see, so a leg reaching as far as it goes shows here.
+NEAR_STRAIGHT_DEG = 170.0
 #: Leg joints bent less than this at rest (interior angle, degrees) are the
 #: hinges checked for locking (a joint straight at rest, like a horse's
 #: carpus, is left out).
@@ -173,6 +179,18 @@ def _hinges(motion, a: Anatomy) -> list[tuple[int, int, int, int]]:
     return out
 
 
+def _elbows_knees(motion, hinges) -> list[int]:
+    """Which of ``hinges`` (:func:`_hinges`) are the elbows and knees: in each
+    leg, the hinge between the two longest bones (at rest) of any hinge's pair."""
+    P = motion.skeleton.rest_positions
+    best: dict[int, tuple[float, int]] = {}
+    for k, (leg, p, j, c) in enumerate(hinges):
+        span = float(np.linalg.norm(P[j] - P[p]) + np.linalg.norm(P[c] - P[j]))
+        if leg not in best or span > best[leg][0]:
+            best[leg] = (span, k)
+    return sorted(k for _, k in best.values())
+
+
 def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = None) -> dict:
     """Measure what a viewer sees of ``motion`` (see the module notes).
 
@@ -196,7 +214,11 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
         per flight phase; -1 is a ballistic fall), ``peak_joint_speed_deg_s``
         and its ``peak_joint``, ``locked_swing_fraction`` (worst hinge) and its
-        ``locked_joint``.
+        ``locked_joint``, and the same of the elbows and knees alone
+        (``elbow_knee_locked_fraction``, ``elbow_knee_locked_joint``; in each
+        leg the hinge between its two longest bones), and their worst share of
+        swing frames at :data:`NEAR_STRAIGHT_DEG` or straighter
+        (``elbow_knee_near_straight_fraction``).
     """
     from quadsim.analysis.smoothness import angular_velocity
 
@@ -328,7 +350,7 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     s["inner"] = _inner_angles(P, hinges)
     batch = {k: None if v is None else v[None] for k, v in s.items()}
     (s["contacts"],) = _contact_arrays(batch, np.asarray(contacts, dtype=bool)[None])
-    return _figures(a, fps, s, contacts, joint_speed, hinges)
+    return _figures(a, fps, s, contacts, joint_speed, hinges, _elbows_knees(motion, hinges))
 
 
 def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[dict]:
@@ -365,17 +387,18 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
     hinges = _hinges(m0, a)
     s = _series(P, Gf, Gh, ground, a, int(m0.skeleton.parents[a.head]), fps)
     s["inner"] = _inner_angles(P, hinges)
+    main = _elbows_knees(m0, hinges)
     at_contacts = _contact_arrays(s, np.asarray(np.stack(contacts), dtype=bool))
     out = []
     for i in range(len(motions)):
         mine = {k: None if v is None else v[i] for k, v in s.items()}
         mine["contacts"] = at_contacts[i]
-        out.append(_figures(a, fps, mine, contacts[i], joint_speeds[i], hinges))
+        out.append(_figures(a, fps, mine, contacts[i], joint_speeds[i], hinges, main))
     return out
 
 
 def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed: np.ndarray,
-             hinges) -> dict:
+             hinges, main) -> dict:
     """The figures of one motion from its per-frame arrays (:func:`_series`)."""
     feet, toes, root = s["feet"], s["toes"], s["root"]
     body_speed, mid, pitch, flex, head = (s[k] for k in ("body_speed", "mid", "pitch", "flex",
@@ -413,18 +436,25 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
     w = np.degrees(joint_speed)
     peak_j = int(np.argmax(w.max(axis=0))) if w.size else 0
     locked, locked_name = None, None
+    main_locked, main_name, main_near = None, None, None
     if hinges:
         leg = [x[0] for x in hinges]
         inner = s["inner"]  # (T, H)
         swing = ~contacts[:, leg]
         n_swing = swing.sum(axis=0)
         n_straight = (swing & (inner >= STRAIGHT_DEG)).sum(axis=0)
+        n_near = (swing & (inner >= NEAR_STRAIGHT_DEG)).sum(axis=0)
         for k in range(len(hinges)):
             if not n_swing[k]:
                 continue
             frac = float(n_straight[k] / n_swing[k])
             if locked is None or frac > locked:
                 locked, locked_name = frac, a.names[hinges[k][2]]
+            if k in main:
+                if main_locked is None or frac > main_locked:
+                    main_locked, main_name = frac, a.names[hinges[k][2]]
+                near = float(n_near[k] / n_swing[k])
+                main_near = near if main_near is None else max(main_near, near)
 
     return {
         "strides": len(bounds),
@@ -448,6 +478,9 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         "peak_joint": a.names[peak_j],
         "locked_swing_fraction": locked,
         "locked_joint": locked_name,
+        "elbow_knee_locked_fraction": main_locked,
+        "elbow_knee_locked_joint": main_name,
+        "elbow_knee_near_straight_fraction": main_near,
     }
 
 
@@ -476,6 +509,9 @@ def format_appearance(report: dict) -> str:
         f"peak joint speed {f(report['peak_joint_speed_deg_s'], '.0f')} deg/s "
         f"({report['peak_joint']}); locked straight in swing "
         f"{f(None if report['locked_swing_fraction'] is None else 100 * report['locked_swing_fraction'], '.1f')} %"
-        f" ({report['locked_joint'] or '-'})",
+        f" ({report['locked_joint'] or '-'}); elbows and knees "
+        f"{f(None if report['elbow_knee_locked_fraction'] is None else 100 * report['elbow_knee_locked_fraction'], '.1f')} %"
+        f" ({report['elbow_knee_locked_joint'] or '-'}), nearly straight "
+        f"{f(None if report['elbow_knee_near_straight_fraction'] is None else 100 * report['elbow_knee_near_straight_fraction'], '.1f')} %",
     ]
     return "\n".join(lines)
