@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 
 from quadsim.frames import UP
-from quadsim.kinematics.ik import SWING_LIFT_BAND, SWING_LIFT_FOLD, SWING_PAIR_REACH
+from quadsim.kinematics.ik import (LIFT_CUTOFF, SWING_LIFT_BAND, SWING_LIFT_FOLD,
+                                   SWING_PAIR_REACH)
 from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.locomotion.cpg import TWO_PI, CPGParams
 from quadsim.locomotion.footpath import SWING_KNOTS
@@ -125,9 +126,9 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None):
         top = np.sqrt(np.maximum(lim * lim - vf * vf, 0.0))
         k = SWING_LIFT_BAND * span
         z = (vd - top) / k
-        eased = vd - k * np.logaddexp(0.0, np.maximum(z, -30.0))
+        eased = vd - k * np.logaddexp(0.0, np.maximum(z, -LIFT_CUTOFF))
         on = lift > 0.0
-        vd = np.where(on & (vf * vf < lim * lim) & (vd > 0.0) & (z >= -30.0),
+        vd = np.where(on & (vf * vf < lim * lim) & (vd > 0.0) & (z >= -LIFT_CUTOFF),
                       vd + lift * (eased - vd), vd)
     r_true = np.hypot(vd, vf)
     # np.minimum(np.maximum(...)) is np.clip without its per-call overhead

@@ -38,6 +38,8 @@ class PlaceRig(NamedTuple):
     hind, fore : float
         The hips' and the shoulders' distance ahead of the root (m), where the ground
         pitch is measured.
+    below : ndarray of int64, shape (4, K)
+        Per leg, the joints below its foot joint in joint order, padded with -1.
     """
 
     parents: np.ndarray
@@ -51,6 +53,7 @@ class PlaceRig(NamedTuple):
     centre: float
     hind: float
     fore: float
+    below: np.ndarray
 
 
 class PlaceTuning(NamedTuple):

@@ -289,7 +289,6 @@ def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
     it, its toe tip sliding 5-9 mm while the paw joint stayed put.
     """
     parents, offsets = rig.parents, rig.offsets
-    J = parents.shape[0]
     fade_t = tuning.swing_fade
     for i in range(4):
         f = rig.feet[i]
@@ -299,17 +298,18 @@ def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
         w = 1.0 if feet.planted[i] else 1.0 - _smoothstep(feet.air[i] / fade_t)
         if w <= 0.0:
             continue
-        quaternion_from_matrix(G[f], q)
-        slerp_one(q, feet.attitude[i], w, q)
-        matrix_from_quaternion(q, W)
+        if w < 1.0:  # lifting: eased from the held attitude to the pose's
+            quaternion_from_matrix(G[f], q)
+            slerp_one(q, feet.attitude[i], w, q)
+            matrix_from_quaternion(q, W)
+        else:
+            matrix_from_quaternion(feet.attitude[i], W)
         mul_tn_into(G[parents[f]], W, L[f])
         copy_into(W, G[f])
-        for j in range(f + 1, J):  # the joints below the foot follow it
-            a = parents[j]
-            while a > f:
-                a = parents[a]
-            if a != f:
-                continue
+        for m in range(rig.below.shape[1]):  # the joints below the foot follow it
+            j = rig.below[i, m]
+            if j < 0:
+                break
             p = parents[j]
             for r in range(3):
                 P[j, r] = P[p, r] + G[p, r, 0] * offsets[j, 0] + G[p, r, 1] * offsets[j, 1] \

@@ -103,7 +103,8 @@ class Placement:
         self.rig = PlaceRig(np.ascontiguousarray(skel.parents, dtype=np.int64),
                             np.ascontiguousarray(skel.offsets, dtype=float),
                             self.lead.chain, self.lead.share, self.lead.tau, feet, tops, mids,
-                            float(centre), self.girdles[0], self.girdles[1])
+                            float(centre), self.girdles[0], self.girdles[1],
+                            _below(skel.parents, feet))
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
         self._place_row = FixedEntry(place_row)
@@ -148,6 +149,23 @@ class Placement:
                                    dt, yaw, yaw_prev, yaw_lead),
                         self.rig, TUNING, self.state, ramps, out)
         return out
+
+
+def _below(parents, feet) -> np.ndarray:
+    """Per foot joint, the joints below it in joint order, shape (4, K), padded with -1."""
+    parents = np.asarray(parents)
+    rows = []
+    for f in feet:
+        inside, row = {int(f)}, []
+        for j in range(int(f) + 1, len(parents)):  # a parent comes before its children
+            if int(parents[j]) in inside:
+                inside.add(j)
+                row.append(j)
+        rows.append(row)
+    out = np.full((4, max(1, max(len(r) for r in rows))), -1, dtype=np.int64)
+    for i, r in enumerate(rows):
+        out[i, :len(r)] = r
+    return out
 
 
 __all__ = ["LOOK_DISTANCE", "PITCH_TAU", "REACH", "ROOT_BAND", "SAG_TAU", "SHIFT_SPEED",

@@ -64,6 +64,9 @@ SWING_PAIR_REACH = 0.985
 #: of the stride).
 SWING_LIFT_BAND = 0.01
 SWING_LIFT_FOLD = 0.05
+#: The soft minimum is skipped more than this many bands inside the reach (it
+#: would lift the foot by under 0.0004 of a band there).
+LIFT_CUTOFF = 8.0
 #: A post joint with no limits in the character file folds within these (rad).
 DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
 #: Largest fold of a post bone (rad).
@@ -259,13 +262,11 @@ def _lifted(x, y, span):
     :data:`SWING_LIFT_BAND` of it (the foot is lifted in the leg's plane where
     the path would carry it out of reach)."""
     lim = SWING_PAIR_REACH * span
-    if y * y >= lim * lim or x <= 0.0:
-        return x
-    top = math.sqrt(lim * lim - y * y)
     k = SWING_LIFT_BAND * span
-    z = (x - top) / k
-    if z < -30.0:
+    near = x + LIFT_CUTOFF * k  # well inside the reach (z below -LIFT_CUTOFF): as it is
+    if x <= 0.0 or near <= 0.0 or near * near + y * y < lim * lim or y * y >= lim * lim:
         return x
+    z = (x - math.sqrt(lim * lim - y * y)) / k
     return x - k * (z + math.log1p(math.exp(-z)) if z > 0.0 else math.log1p(math.exp(z)))
 
 
@@ -296,8 +297,9 @@ def _foot_turn(G, g, p, ca, sa, want):
     r00, r01, r02 = c + k * wx * wx, -s * wz, k * wx * wz
     r10, r11, r12 = s * wz, c, -s * wx
     r20, r21, r22 = k * wz * wx, s * wx, c + k * wz * wz
-    d = want - math.atan2(wx, wz)
-    cy, sy = math.cos(d), math.sin(d)
+    # the turn d = want - atan2(wx, wz) about the vertical, by its cosine and sine
+    cw, sw = math.cos(want), math.sin(want)
+    cy, sy = cw * wz + sw * wx, sw * wz - cw * wx
     # C = R_y(d) R
     c00, c01, c02 = cy * r00 + sy * r20, cy * r01 + sy * r21, cy * r02 + sy * r22
     c10, c11, c12 = r10, r11, r12
