@@ -18,11 +18,14 @@ is solved as
   angle (the heel rises as the leg sweeps back), plus a fold while the foot
   is in swing.
 
-Reachable targets are reached exactly; so is a foot joint's world yaw when
-the posing asks for it (:func:`leg_rows`). An unreachable target gives the
-closest pose along the line to it, never NaN, the pair stretched to
-:data:`PAIR_REACH` of its length (it keeps a bend of a few degrees) and the
-miss reported.
+Reachable targets are reached exactly; so is a foot joint's world yaw, the
+foot held level, when the posing asks for it (:func:`leg_rows`). An
+unreachable target gives the closest pose along the line to it, never NaN,
+the pair stretched to :data:`PAIR_REACH` of its length (it keeps a bend of a
+few degrees) and the miss reported. Under the posing (the yaw asked for), a
+swinging foot (fold above 0) whose target is beyond :data:`SWING_PAIR_REACH`
+of its pair is first lifted in the leg's plane (:func:`_lifted`); the miss is
+then measured from the lifted target, so the lift by design is not a miss.
 
 :func:`leg_rows` is the IK, compiled: the posing
 (:mod:`quadsim.locomotion.pose_kernel`) runs it for every frame, and
