@@ -38,6 +38,10 @@ __all__ = ["FACE_WORDS", "HEAD_WORDS", "HELPER_WORDS", "STRAIGHT_DEG", "Frame", 
            "Structure", "detect_frame", "find_feet", "find_structure", "leg_groups",
            "name_kind", "name_words", "named_away", "straight_joints"]
 
+#: Toe ends of one foot this close in height (a fraction of the feet's band) count as
+#: level: the longest of them is the foot.
+TOE_TIE = 1e-6
+
 #: Words of bone names that are face or head detail.
 FACE_WORDS = frozenset(
     "ear ears jaw eye eyes eyeball eyelid lid lids brow brows lip lips tongue mouth nose "
@@ -159,7 +163,12 @@ def find_feet(P: np.ndarray, parents, away, up: np.ndarray) -> tuple[list[int], 
     feet, toes = [], {}
     for c in clusters:
         top = next(a for a in anc[c[0]] if all(a in anc[m] for m in c))
-        foot = max(c, key=lambda m: (anc[m].index(top), -h[m], -m))   # the longest toe
+        # the longest toe: the deepest chain, then the lowest end (heights within
+        # TOE_TIE of the band alike: rounding in a file's units must not decide),
+        # then the furthest from the joint the toes share
+        low = min(h[m] for m in c) + TOE_TIE * band
+        foot = max(c, key=lambda m: (anc[m].index(top), bool(h[m] <= low),
+                                     float(np.linalg.norm(P[m] - P[top])), -m))
         feet.append(foot)
         toes.update({m: foot for m in c if m != foot})
     return feet, toes
