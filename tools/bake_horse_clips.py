@@ -56,13 +56,17 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from quadsim.analysis.metrics import foot_contacts
-from quadsim.horse.database import cut_cycles, looped, sample_motion
+from quadsim.analysis.appearance import toe_positions
+from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
+from quadsim.horse.database import Cycle, cut_cycles, looped, pose_distance_deg, sample_motion
+from quadsim.errors import InputError
+from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.bvh import write_bvh
 from quadsim.commands import Command
 from quadsim.locomotion.offline import simulate
@@ -80,6 +84,15 @@ BAKE_LOOP_TOLERANCE_DEG = 15.0
 #: few ms off moves the cut's ends by a centimetre or two. The residual is
 #: spread over the cycle either way (:func:`~quadsim.horse.database.cut_cycles`).
 BAKE_ROOT_TOLERANCE = 0.05
+#: A cut cycle is shipped only when, played as a loop at its speed, no planted foot
+#: slides this far (m; the clip database's loop test bound) ...
+BAKE_SLIDE = 0.002
+#: ... no toe tip dips this far below the ground (m) ...
+BAKE_TOE_DEPTH = 0.0025
+#: ... and each foot's measured touchdown is within this many frames of its label.
+BAKE_LABEL_FRAMES = 1.5
+#: Steady cycles of a take to consider (all of an 8 s take's).
+BAKE_CANDIDATES = 64
 G = 9.81
 #: (gait in the procedural engine, clip gait, speed m/s, gait-table overrides):
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
@@ -92,15 +105,84 @@ CLIPS = [
     ("walk", "walk", 1.7, {"drop": 0.10, "stride": 2.2}),
     ("amble", "amble", 2.9, {"drop": 0.07}), ("amble", "amble", 3.5, {"drop": 0.07}),
     ("trot", "trot", 3.0, {"drop": 0.10, "stride": 2.08}),
-    ("trot", "trot", 5.0, {"drop": 0.13, "stride": 2.05}),
+    ("trot", "trot", 5.0, {"drop": 0.12, "stride": 2.0}),
     ("rack", "rack", 3.5, {"drop": 0.15, "stride": 2.3}),
     ("rack", "rack", 5.0, {"drop": 0.16, "stride": 2.2}),
     ("canter", "canter", 5.0, {"stride": 1.85}),
-    ("canter", "canter", 7.0, {"drop": 0.10, "stride": 1.8}),
+    ("canter", "canter", 7.0, {"drop": 0.10, "stride": 1.75}),
     ("transverse_gallop", "gallop", 11.0, {}),
 ]
 #: Flight time added to the gallop's suspension to make the leap (s).
 LEAP_FLIGHT = 0.45
+
+
+def cycle_defects(cyc: Cycle) -> list[str]:
+    """What keeps a cut cycle from shipping, measured on it played as a loop.
+
+    The cycle, looped four times at its speed (as the data mode plays it), must
+    wrap from its last frame to its first no further than 1.5 times its largest
+    frame-to-frame step plus 1 deg, land each foot twice in the middle two loops
+    within :data:`BAKE_LABEL_FRAMES` of its touchdown label, keep its planted
+    feet within :data:`BAKE_SLIDE` and its toe tips within :data:`BAKE_TOE_DEPTH`
+    of the ground. The cut's sub-frame phase decides these: at 60 fps a trot
+    stride of 38.6 frames resamples to 38 or 39, and a lift-off falling just
+    after a frame leaves the foot low but moving on it (a 5.7 mm slide in one
+    such trot cycle, none in its neighbours).
+
+    Returns
+    -------
+    defects : list of str
+        Empty when the cycle may ship.
+    """
+    n = cyc.frames
+    q = cyc.motion.rotations
+    out = []
+    step = float(pose_distance_deg(q[1:], q[:-1]).max())
+    wrap = float(pose_distance_deg(q[-1], q[0]))
+    if wrap > 1.5 * step + 1.0:
+        out.append(f"wraps {wrap:.1f} deg (largest step {step:.1f})")
+    m = looped(cyc.motion, 4, cyc.speed)
+    feet = m.foot_positions()
+    con = foot_contacts(feet, m.fps)
+    iv = stance_intervals(con, m.fps, feet)
+    for i, leg in enumerate(("LF", "RF", "LH", "RH")):
+        on = iv[i][np.isfinite(iv[i][:, 0]), 0] * m.fps
+        inner = on[(on > n) & (on < 3 * n)]
+        if len(inner) != 2:
+            out.append(f"{leg} lands {len(inner)} times in two loops")
+            continue
+        d = (inner[0] - cyc.touchdown[i]) % n
+        if min(d, n - d) > BAKE_LABEL_FRAMES:
+            out.append(f"{leg} lands {min(d, n - d):.1f} frames from its label")
+    _, slide = foot_slide(feet[n:], con[n:])
+    if slide >= BAKE_SLIDE:
+        out.append(f"a planted foot slides {slide * 1000:.1f} mm")
+    depth = -float(toe_positions(m)[..., 1].min())
+    if depth > BAKE_TOE_DEPTH:
+        out.append(f"a toe tip dips {depth * 1000:.1f} mm")
+    return out
+
+
+def best_cycle(take: Motion, character, where: str) -> Cycle:
+    """The best-looping cut cycle of ``take`` that :func:`cycle_defects` passes.
+
+    Raises
+    ------
+    RuntimeError
+        When no steady cycle of the take passes, naming each one's defects.
+    """
+    cycles = cut_cycles(take, character=character, where=where, count=BAKE_CANDIDATES,
+                        loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
+                        root_tolerance=BAKE_ROOT_TOLERANCE)
+    report = []
+    for cyc in sorted(cycles, key=lambda c: c.loop_error_deg):
+        bad = cycle_defects(cyc)
+        if not bad:
+            return cyc
+        report.append(f"  cut at {cyc.start_time:.3f} s (loop {cyc.loop_error_deg:.1f} deg): "
+                      + "; ".join(bad))
+    raise RuntimeError(f"{where}: no cycle of the take can ship:\n" + "\n".join(report)
+                       + "\nchoose other gait-table overrides for it in CLIPS")
 
 
 def _leap(gallop: Motion, speed: float, td: np.ndarray):
@@ -162,8 +244,13 @@ def _describe(over: dict) -> str:
 
 
 def bake(out: Path) -> list[str]:
+    """Bake every clip of :data:`CLIPS` and the leap into ``out``; the log lines.
+
+    Every clip is made before any file is written, so a take with no cycle to
+    ship (:func:`best_cycle`) leaves ``out`` as it was; each file is then
+    replaced whole (the manifest last).
+    """
     horse = load_character("horse")
-    out.mkdir(parents=True, exist_ok=True)
     lines = [
         '# The default horse clip database (see quadsim.horse.database).',
         '# Made by tools/bake_horse_clips.py; regenerate with',
@@ -172,15 +259,14 @@ def bake(out: Path) -> list[str]:
         '',
     ]
     log = []
+    motions = {}
     gallop = None
     for proc, gait, v, over in CLIPS:
         take = simulate(_with_overrides(horse, proc, over), Command(speed=v, gait=proc),
                         TAKE_SECONDS, FPS)
-        cyc = cut_cycles(take, character=horse, where=f"{gait} {v} m/s take",
-                         loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
-                         root_tolerance=BAKE_ROOT_TOLERANCE)[0]
+        cyc = best_cycle(take, horse, f"{gait} {v} m/s take")
         name = f"{gait}_{v:.1f}"
-        write_bvh(cyc.motion, out / f"{name}.bvh", precision=6)
+        motions[name] = cyc.motion
         td = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in cyc.touchdown)))
         lines += [f'[clips."{name}"]', f'file = "{name}.bvh"', f'gait = "{gait}"',
                   f"speed = {cyc.speed:.4f}", f"frames = {cyc.frames}",
@@ -194,12 +280,12 @@ def bake(out: Path) -> list[str]:
                   f'spread over the cycle, stance feet pinned by IK)"'),
                   ""]
         log.append(f"{name}: {cyc.frames} frames, {cyc.speed:.3f} m/s, td {td}, "
-                   f"loop {cyc.loop_error_deg:.2f} deg")
+                   f"loop {cyc.loop_error_deg:.2f} deg, cut at {cyc.start_time:.3f} s")
         if gait == "gallop":
             gallop = (cyc, name)
     cyc, gname = gallop
     motion, td, rise, clearance, tf = _leap(cyc.motion, cyc.speed, cyc.touchdown)
-    write_bvh(motion, out / "leap.bvh", precision=6)
+    motions["leap"] = motion
     tdd = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in td)))
     lines += ['[clips.leap]', 'file = "leap.bvh"', 'gait = "leap"', 'start_gait = "gallop"',
               f"speed = {cyc.speed:.4f}", f"frames = {len(motion)}",
@@ -211,7 +297,10 @@ def bake(out: Path) -> list[str]:
               f'constant speed; height = highest point of the lowest foot in the flight"'), ""]
     log.append(f"leap: {len(motion)} frames, flight {tf:.3f} s, rise {rise:.3f} m, "
                f"clearance {clearance:.3f} m, td {tdd}")
-    (out / "manifest.toml").write_text("\n".join(lines), encoding="utf-8")
+    out.mkdir(parents=True, exist_ok=True)
+    for name, m in motions.items():
+        write_bvh(m, out / f"{name}.bvh", precision=6)
+    atomic_write_bytes(out / "manifest.toml", "\n".join(lines).encode("utf-8"))
     return log
 
 
@@ -219,7 +308,12 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default=str(characters_dir() / "horse" / "clips"))
     a = p.parse_args(argv)
-    for line in bake(Path(a.out)):
+    try:
+        log = bake(Path(a.out))
+    except (RuntimeError, InputError) as e:
+        print(f"bake_horse_clips: {e}", file=sys.stderr)
+        return 1
+    for line in log:
         print(line)
     return 0
 
