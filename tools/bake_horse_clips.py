@@ -56,6 +56,7 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -63,8 +64,11 @@ from pathlib import Path
 import numpy as np
 
 from quadsim.analysis.appearance import toe_positions
-from quadsim.analysis.metrics import foot_contacts, foot_slide, stance_intervals
-from quadsim.horse.database import Cycle, cut_cycles, looped, pose_distance_deg, sample_motion
+from quadsim.analysis.metrics import angular_velocity, foot_contacts, foot_slide, stance_intervals
+from quadsim.horse.database import (LEGS, Clip, Cycle, cut_cycles, looped, pose_distance_deg,
+                                    sample_motion)
+from quadsim.horse.playback import CLIP_ANCHORED
+from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, expand
 from quadsim.errors import InputError
 from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.bvh import write_bvh
@@ -93,6 +97,18 @@ BAKE_TOE_DEPTH = 0.0025
 BAKE_LABEL_FRAMES = 1.5
 #: Steady cycles of a take to consider (all of an 8 s take's).
 BAKE_CANDIDATES = 64
+#: The speeds (m/s) the data mode is measured at per gait (GAITS.md's horse speeds as
+#: the tests and tools/horse_transition_table.py take them, the gallop to the 12 m/s of
+#: tools/appearance_table.py): each clip is expanded to both ends of the part of its
+#: gait's span it is the nearest clip for (:meth:`~quadsim.horse.database.ClipDatabase.nearest`).
+SERVED = {"walk": (1.4, 1.8), "amble": (2.7, 3.8), "trot": (2.5, 6.5), "rack": (2.9, 5.5),
+          "canter": (4.4, 7.5), "gallop": (9.0, 12.0)}
+#: Expanded, no joint may turn faster than this many times the clip's fastest ...
+BAKE_WHIP = 1.4
+#: ... every foot's contact time is within this fraction of the law's ...
+BAKE_CONTACT = 0.10
+#: ... and no toe tip dips further below the ground than this (m; issue 13's bound).
+BAKE_EXPANDED_TOE_DEPTH = 0.003
 G = 9.81
 #: (gait in the procedural engine, clip gait, speed m/s, gait-table overrides):
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
@@ -105,11 +121,11 @@ CLIPS = [
     ("walk", "walk", 1.7, {"drop": 0.10, "stride": 2.2}),
     ("amble", "amble", 2.9, {"drop": 0.07}), ("amble", "amble", 3.5, {"drop": 0.07}),
     ("trot", "trot", 3.0, {"drop": 0.10, "stride": 2.08}),
-    ("trot", "trot", 5.0, {"drop": 0.12, "stride": 2.0}),
+    ("trot", "trot", 5.0, {"drop": 0.14, "stride": 2.0}),
     ("rack", "rack", 3.5, {"drop": 0.15, "stride": 2.3}),
     ("rack", "rack", 5.0, {"drop": 0.16, "stride": 2.2}),
     ("canter", "canter", 5.0, {"stride": 1.85}),
-    ("canter", "canter", 7.0, {"drop": 0.10, "stride": 1.75}),
+    ("canter", "canter", 7.0, {"drop": 0.11, "stride": 1.75}),
     ("transverse_gallop", "gallop", 11.0, {}),
 ]
 #: Flight time added to the gallop's suspension to make the leap (s).
@@ -145,7 +161,7 @@ def cycle_defects(cyc: Cycle) -> list[str]:
     feet = m.foot_positions()
     con = foot_contacts(feet, m.fps)
     iv = stance_intervals(con, m.fps, feet)
-    for i, leg in enumerate(("LF", "RF", "LH", "RH")):
+    for i, leg in enumerate(LEGS):
         on = iv[i][np.isfinite(iv[i][:, 0]), 0] * m.fps
         inner = on[(on > n) & (on < 3 * n)]
         if len(inner) != 2:
@@ -163,8 +179,65 @@ def cycle_defects(cyc: Cycle) -> list[str]:
     return out
 
 
-def best_cycle(take: Motion, character, where: str) -> Cycle:
-    """The best-looping cut cycle of ``take`` that :func:`cycle_defects` passes.
+def _peak_speed_deg_s(motion: Motion) -> float:
+    """Largest joint angular speed (deg/s) of a looped clip, across its seam too."""
+    q = np.concatenate([motion.rotations, motion.rotations[:2]])
+    return float(np.degrees(angular_velocity(q, motion.fps)).max())
+
+
+def served_span(gait: str, speed: float) -> tuple[float, float]:
+    """The speeds (m/s) of :data:`SERVED` whose nearest clip of ``gait`` is the one at
+    ``speed`` (the gait's clips in :data:`CLIPS`; boundaries at geometric means)."""
+    lo, hi = SERVED[gait]
+    vs = sorted(v for _, g, v, _ in CLIPS if g == gait)
+    k = vs.index(speed)
+    a = lo if k == 0 else math.sqrt(vs[k - 1] * vs[k])
+    b = hi if k == len(vs) - 1 else math.sqrt(vs[k] * vs[k + 1])
+    return a, b
+
+
+def expansion_defects(clip: Clip, character, speeds) -> list[str]:
+    """What goes wrong with ``clip`` expanded to each of ``speeds`` (m/s) as the data mode
+    expands it (:func:`quadsim.horse.speed.expand`, the amble and gallop relative to the
+    clip): a joint turning faster than :data:`BAKE_WHIP` times the clip's fastest (a leg
+    landing within a few per cent of straight, asked for a longer step, is pulled straight
+    by the IK for a frame: a trot's hind stifle at 2,300 deg/s against its clip's 1,450),
+    a foot's contact time off the law's by more than :data:`BAKE_CONTACT`, a toe tip
+    deeper than :data:`BAKE_EXPANDED_TOE_DEPTH`.
+
+    Returns
+    -------
+    defects : list of str
+        Empty when every expansion is sound.
+    """
+    out = []
+    anchor = "clip" if clip.gait in CLIP_ANCHORED else "law"
+    top = _peak_speed_deg_s(clip.motion)
+    for v in speeds:
+        e = expand(clip, character, v, anchor=anchor)
+        w = _peak_speed_deg_s(e.motion)
+        if w > BAKE_WHIP * top:
+            out.append(f"at {v:.2f} m/s a joint turns {w:,.0f} deg/s ({w / top:.2f}x the clip's)")
+        want = (float(contact_time(clip.gait, v)) if anchor == "law"
+                else clip_contact_time(clip) * (v / clip.speed) ** HOYT[clip.gait][1])
+        m = looped(e.motion, 6, e.speed)
+        feet = m.foot_positions()
+        iv = stance_intervals(foot_contacts(feet, m.fps), m.fps, feet)
+        for i, leg in enumerate(LEGS):
+            s = iv[i][np.isfinite(iv[i]).all(axis=1)][1:-1]
+            dev = float(np.abs((s[:, 1] - s[:, 0]) / want - 1).max()) if len(s) else np.inf
+            if dev > BAKE_CONTACT:
+                out.append(f"at {v:.2f} m/s {leg} stands {dev:.0%} off the law's {want:.3f} s")
+        depth = -float(toe_positions(m)[..., 1].min())
+        if depth > BAKE_EXPANDED_TOE_DEPTH:
+            out.append(f"at {v:.2f} m/s a toe tip dips {depth * 1000:.1f} mm")
+    return out
+
+
+def best_cycle(take: Motion, character, gait: str, speed: float, where: str) -> Cycle:
+    """The best-looping cut cycle of ``take`` that :func:`cycle_defects` passes and, as
+    a ``gait`` clip at nominal ``speed``, :func:`expansion_defects` over its
+    :func:`served_span`.
 
     Raises
     ------
@@ -175,8 +248,12 @@ def best_cycle(take: Motion, character, where: str) -> Cycle:
                         loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
                         root_tolerance=BAKE_ROOT_TOLERANCE)
     report = []
+    span = served_span(gait, speed)
     for cyc in sorted(cycles, key=lambda c: c.loop_error_deg):
         bad = cycle_defects(cyc)
+        if not bad:
+            clip = Clip(where, gait, cyc.speed, cyc.frames, cyc.touchdown, cyc.lead, cyc.motion)
+            bad = expansion_defects(clip, character, span)
         if not bad:
             return cyc
         report.append(f"  cut at {cyc.start_time:.3f} s (loop {cyc.loop_error_deg:.1f} deg): "
@@ -264,7 +341,7 @@ def bake(out: Path) -> list[str]:
     for proc, gait, v, over in CLIPS:
         take = simulate(_with_overrides(horse, proc, over), Command(speed=v, gait=proc),
                         TAKE_SECONDS, FPS)
-        cyc = best_cycle(take, horse, f"{gait} {v} m/s take")
+        cyc = best_cycle(take, horse, gait, v, f"{gait} {v} m/s take")
         name = f"{gait}_{v:.1f}"
         motions[name] = cyc.motion
         td = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in cyc.touchdown)))
