@@ -1,7 +1,7 @@
 """Bake the default horse clip database from the procedural horse.
 
 Each gait is simulated by the procedural controller
-(:func:`quadsim.locomotion.controller.simulate`) at a constant command for
+(:func:`quadsim.locomotion.offline.simulate`) at a constant command for
 some seconds; :func:`quadsim.horse.database.cut_cycles` then cuts one steady,
 looped cycle out of the take by its measured foot contacts and labels the
 touchdowns. Eleven gait clips at speeds spread over each gait's range (the
@@ -15,37 +15,57 @@ speed. The procedural horse sets its stride by Alexander's law
 (``lambda / h = stride Fr^0.3``) but no longer than its legs' stance sweep at
 the gait's body drop allows (``2 margin half_sweep(drop) / duty``), so a
 stance lasts about that sweep over the speed: with the horse's own gait
-tables the measured contact times are 13 % (walk 1.3 m/s), 19 % (walk 1.7),
-6 % (trot 3.0), 20 % (trot 5.0) and 32 % (rack 5.0) under ``a v^b`` at the
-clips' speeds, and 17-18 % over it in the canter (5.0 and 7.0 m/s, whose drop
-of 12 % of the pelvis height sweeps the legs further than the law); the
-amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg through a stifle pop
-at each touchdown whose size beats with the frame grid (its best cycles loop
-12-15 deg apart and slide 4.6 mm), and the rack at 3.5 m/s, at its 4 % drop,
-has no cycle that loops. :func:`quadsim.horse.speed.expand` can
-stretch a step by a few per cent, not by a fifth, and the canter's 17 %
-would be a 16 % shorter step (``r`` 0.84: the re-posed fore legs tilt their
-hooves 11 mm into the ground).
+tables the measured contact times are 14 % (walk 1.3 m/s), 20 % (walk 1.7),
+3 % (trot 3.0), 15 % (trot 5.0), 30 % (rack 3.5) and 32 % (rack 5.0) under
+``a v^b`` at the clips' speeds, and 17 % over it in the canter (5.0 and
+7.0 m/s, whose drop of 12 % of the pelvis height sweeps the legs further than
+the law); the amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg
+through a stifle pop at each touchdown whose size beats with the frame grid
+(its best cycles loop 8-9 deg apart, against 1.6 and 0.1 deg at 7 %).
+:func:`quadsim.horse.speed.expand` can stretch a step by a few per cent, not
+by a fifth: the canter's 17 % would be a 15 % shorter step (``r`` 0.85) at
+the clip's own speed, and every expansion of the gait would start that far
+from its clip.
 The takes are therefore simulated with per-clip overrides of the horse's
 gait table (the ``[gaits.<name>]`` fields a character file may set, applied
 to a copy of the character here, never written back): ``drop`` (fraction of
-the pelvis height, 1.52 m) sets the legs' sweep -- 8-10 % in the walk, 10-13 %
+the pelvis height, 1.52 m) sets the legs' sweep -- 8-10 % in the walk, 10-14 %
 in the trot and 15-16 % in the rack lengthen it, 7 % in the amble keeps its
 hind legs in reach -- and ``stride`` then sets the stride (and with the duty
 the contact time) where the sweep no longer caps it, so that the contact time
-is Hoyt's at that speed (measured within 6 %: walk 1.00 and 1.03, trot 0.99
-and 1.02, rack 0.98 and 0.98, canter 0.99 and 1.06 of ``a v^b``). The canter
-keeps (nearly) the horse's own drop -- the gallop's, 12 %: a canter lowered
-less stands 5-9 cm above the gallop it changes into and leaps from -- and
-takes a stride short enough (``stride`` 1.8-1.85) that its stance under the
-horse's canter duty factor lasts the law's time (``lambda = Tc v / duty``,
-15 % under Alexander's stride); at 7 m/s a drop of 10 % keeps the leading
-fore leg's stance within 8 % of the others' (at 12 % it lifts 11 % early). The gallop keeps the defaults (its
-absolute law is beyond any leg, see quadsim.horse.speed; the amble's too).
-Every override was chosen among neighbouring ones (drop in 1 % steps, stride
-in 0.02-0.1 steps) as the one whose cut clip also loops within 3 deg and
-keeps its toe tips within 2.5 mm of the ground (several neighbours pin a
-foot into a 4-30 mm toe dip or slide).
+is Hoyt's at that speed (measured within 3 %: walk 1.00 and 1.03, trot 1.00
+and 0.98, rack 0.99 and 0.98, canter 1.00 and 1.00 of ``a v^b``). The canter
+keeps (nearly) the horse's own drop -- the gallop's, 12 % (mean root height
+1.32 m at 5 m/s against the gallop's 1.34 m; a canter lowered 8 % stands
+2.6 cm above the gallop it changes into and leaps from) -- and takes a stride
+short enough (``stride`` 1.75-1.85) that its stance under the horse's canter
+duty factor lasts the law's time (``lambda = Tc v / duty``, 19-24 % under
+Alexander's stride); at 7 m/s a drop of 11 % keeps the leading fore leg's
+stance within 5 % of the others' mean (at 10 % and 12 % it lifts 14 % early).
+The gallop keeps the defaults (its absolute law is beyond any leg, see
+quadsim.horse.speed; the amble's too; its ``stride`` does not change the
+sweep-capped step, and drops of 10-16 % leave the clip expanded to 12 m/s
+landing at 0.31-0.38 of the body speed and turning a joint at 2,480-2,650
+deg/s, the defaults' 0.34 and 2,650).
+
+Which cycle ships. A take of 8 s holds 4-13 steady cycles; at 60 fps a
+stride is not a whole number of frames, so each cut resamples differently
+and the figures that matter beat with the cut's sub-frame phase (one trot
+take's cycles slide 0-9.7 mm looped). :func:`best_cycle` ships the
+best-looping cycle that passes :func:`cycle_defects` (looped: wrap, touchdown
+labels, planted feet under 2 mm, toe tips within 2.5 mm) and, expanded to
+both ends of the speeds it serves, :func:`expansion_defects` (joints within
+1.4x the clip's fastest, every foot's contact time within 10 % of the law's,
+toe tips within 3 mm), and stops with each cycle's defects when none does.
+The overrides of trot 5.0 and canter 7.0 were re-chosen among neighbouring
+ones (drop in 1 % steps, stride in 0.05 steps) for a shipped clip that loops
+within 2.3 deg (all shipped clips do), stands within 3 % of the law and,
+expanded over its span, lands and turns most gently (trot 5.0 at 6.5 m/s:
+touchdown 0.18 of the body speed, a joint at 1,880 deg/s; at drop 0.12 and
+stride 2.05, 0.42 and 2,190). Several neighbours' best-looping cycles slid
+3.8-5.7 mm or dipped a toe 4-5 mm (trot 5.0 at drop 0.13 and stride 2.05,
+the previous bake's overrides, slid 5.7 mm; canter 7.0 at stride 1.8,
+3.8-3.9 mm).
 Each clip's manifest ``source`` names its overrides.
 
 Usage::
