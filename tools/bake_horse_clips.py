@@ -48,7 +48,7 @@ sweep-capped step, and drops of 10-16 % leave the clip expanded to 12 m/s
 landing at 0.31-0.38 of the body speed and turning a joint at 2,480-2,650
 deg/s, the defaults' 0.34 and 2,650).
 
-Which cycle ships. A take of 8 s holds 4-13 steady cycles; at 60 fps a
+Which cycle ships. A take of 8 s holds 4-12 steady cycles; at 60 fps a
 stride is not a whole number of frames, so each cut resamples differently
 and the figures that matter beat with the cut's sub-frame phase (one trot
 take's cycles slide 0-9.7 mm looped). :func:`best_cycle` ships the
