@@ -76,3 +76,15 @@ def test_an_expansion_past_the_legs_reach_is_named(bake, db, horse):
     c = db.clips["trot_5.0"]
     bad = bake.expansion_defects(c, horse, [9.0])
     assert bad and all(b.startswith("at 9.00 m/s") for b in bad), bad
+
+
+def test_a_take_with_no_cycle_to_ship_stops_the_bake_and_writes_nothing(bake, tmp_path,
+                                                                        monkeypatch, capsys):
+    monkeypatch.setattr(bake, "CLIPS", [("trot", "trot", 3.0, {"drop": 0.10, "stride": 2.08})])
+    monkeypatch.setattr(bake, "BAKE_TOE_DEPTH", -1.0)       # every toe counts as dipping
+    out = tmp_path / "clips"
+    assert bake.main(["--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "trot 3.0 m/s take: no cycle of the take can ship" in err
+    assert "a toe tip dips" in err and "Traceback" not in err
+    assert not out.exists()
