@@ -134,7 +134,7 @@ G = 9.81
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
 #: ``a v^b`` at its speed; the defaults (``characters/gaits.toml`` and
 #: ``horse.toml``: drop walk 0.03, amble 0.03, trot 0.05, rack 0.04, canter
-#: 0.12, gallop 0.12; stride 2.3, amble 2.0, rack 1.8, gallop 2.1) step 6-32 %
+#: 0.12, gallop 0.12; stride 2.3, amble 2.0, rack 1.8, gallop 2.1) stand 3-32 %
 #: short (walk, trot, rack) or 17 % long (canter).
 CLIPS = [
     ("walk", "walk", 1.3, {"drop": 0.08, "stride": 2.2}),
