@@ -21,7 +21,7 @@ tables the measured contact times are 14 % (walk 1.3 m/s), 20 % (walk 1.7),
 7.0 m/s, whose drop of 12 % of the pelvis height sweeps the legs further than
 the law); the amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg
 through a stifle pop at each touchdown whose size beats with the frame grid
-(its best cycles loop 8-9 deg apart, against 1.6 and 0.1 deg at 7 %).
+(its best cycles loop 7.6-8.8 deg apart, against 1.6 and 0.1 deg at 7 %).
 :func:`quadsim.horse.speed.expand` can stretch a step by a few per cent, not
 by a fifth: the canter's 17 % would be a 15 % shorter step (``r`` 0.85) at
 the clip's own speed, and every expansion of the gait would start that far
