@@ -112,7 +112,7 @@ def test_expanded_hooves_keep_their_toe_tips_on_the_ground(horse, db, gait):
 def test_expansion_does_not_whip_a_straightening_leg(horse, db, gait):
     """A swinging leg passing through straight keeps the pose's reach, so the two-bone IK
     does not flip its bend from one frame to the next: no joint of the expanded clip turns
-    much faster than the clip's fastest (measured up to 1.36x; a canter's fore leg moved in
+    much faster than the clip's fastest (measured up to 1.27x; a canter's fore leg moved in
     by 6 % had whipped its elbow at 2.6x, 3,300 deg/s)."""
     for v in SPEEDS[gait]:
         clip = db.nearest(gait, v)

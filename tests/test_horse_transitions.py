@@ -109,13 +109,19 @@ def test_leg_stance_of_every_gait_has_one_contact_per_leg(db):
 
 
 def test_asynchronous_blend_keeps_feet_better_than_synchronous(horse, db):
-    """Before the IK holds the feet, the asynchronous blend slides less (median over 30 pairs)."""
+    """Before the IK holds the feet, the asynchronous blend slides less: median over the
+    30 pairs at all four start phases (120 transitions). One phase's median swings with
+    the clips' cuts: 0.77-0.93 of the synchronous blend's over the four phases with the
+    clips baked from the procedural horse that lifts its swinging legs, 0.81-1.04 with
+    the bake before; over all 120, 0.78 and 0.85."""
     res = {False: [], True: []}
-    for g1, g2 in PAIRS:
-        c1, c2 = db.by_gait(g1)[-1], db.by_gait(g2)[0]
-        for sync in (False, True):
-            m = transition_motion(horse, c1, c2, t_start=0.25, synchronous=sync, pin=False)
-            res[sync].append(transition_quality(m, c1, c2)["slide"])
+    for t_start in PHASES:
+        for g1, g2 in PAIRS:
+            c1, c2 = db.by_gait(g1)[-1], db.by_gait(g2)[0]
+            for sync in (False, True):
+                m = transition_motion(horse, c1, c2, t_start=t_start, synchronous=sync,
+                                      pin=False)
+                res[sync].append(transition_quality(m, c1, c2)["slide"])
     assert np.median(res[False]) < 0.85 * np.median(res[True])
 
 

@@ -1,7 +1,7 @@
 """Bake the default horse clip database from the procedural horse.
 
 Each gait is simulated by the procedural controller
-(:func:`quadsim.locomotion.controller.simulate`) at a constant command for
+(:func:`quadsim.locomotion.offline.simulate`) at a constant command for
 some seconds; :func:`quadsim.horse.database.cut_cycles` then cuts one steady,
 looped cycle out of the take by its measured foot contacts and labels the
 touchdowns. Eleven gait clips at speeds spread over each gait's range (the
@@ -15,37 +15,57 @@ speed. The procedural horse sets its stride by Alexander's law
 (``lambda / h = stride Fr^0.3``) but no longer than its legs' stance sweep at
 the gait's body drop allows (``2 margin half_sweep(drop) / duty``), so a
 stance lasts about that sweep over the speed: with the horse's own gait
-tables the measured contact times are 13 % (walk 1.3 m/s), 19 % (walk 1.7),
-6 % (trot 3.0), 20 % (trot 5.0) and 32 % (rack 5.0) under ``a v^b`` at the
-clips' speeds, and 17-18 % over it in the canter (5.0 and 7.0 m/s, whose drop
-of 12 % of the pelvis height sweeps the legs further than the law); the
-amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg through a stifle pop
-at each touchdown whose size beats with the frame grid (its best cycles loop
-12-15 deg apart and slide 4.6 mm), and the rack at 3.5 m/s, at its 4 % drop,
-has no cycle that loops. :func:`quadsim.horse.speed.expand` can
-stretch a step by a few per cent, not by a fifth, and the canter's 17 %
-would be a 16 % shorter step (``r`` 0.84: the re-posed fore legs tilt their
-hooves 11 mm into the ground).
+tables the measured contact times are 14 % (walk 1.3 m/s), 20 % (walk 1.7),
+3 % (trot 3.0), 15 % (trot 5.0), 30 % (rack 3.5) and 32 % (rack 5.0) under
+``a v^b`` at the clips' speeds, and 17 % over it in the canter (5.0 and
+7.0 m/s, whose drop of 12 % of the pelvis height sweeps the legs further than
+the law); the amble at 2.9-3.5 m/s, at its 3 % drop, swings a hind leg
+through a stifle pop at each touchdown whose size beats with the frame grid
+(its best cycles loop 7.6-8.8 deg apart, against 1.6 and 0.1 deg at 7 %).
+:func:`quadsim.horse.speed.expand` can stretch a step by a few per cent, not
+by a fifth: the canter's 17 % would be a 15 % shorter step (``r`` 0.85) at
+the clip's own speed, and every expansion of the gait would start that far
+from its clip.
 The takes are therefore simulated with per-clip overrides of the horse's
 gait table (the ``[gaits.<name>]`` fields a character file may set, applied
 to a copy of the character here, never written back): ``drop`` (fraction of
-the pelvis height, 1.52 m) sets the legs' sweep -- 8-10 % in the walk, 10-13 %
+the pelvis height, 1.52 m) sets the legs' sweep -- 8-10 % in the walk, 10-14 %
 in the trot and 15-16 % in the rack lengthen it, 7 % in the amble keeps its
 hind legs in reach -- and ``stride`` then sets the stride (and with the duty
 the contact time) where the sweep no longer caps it, so that the contact time
-is Hoyt's at that speed (measured within 6 %: walk 1.00 and 1.03, trot 0.99
-and 1.02, rack 0.98 and 0.98, canter 0.99 and 1.06 of ``a v^b``). The canter
-keeps (nearly) the horse's own drop -- the gallop's, 12 %: a canter lowered
-less stands 5-9 cm above the gallop it changes into and leaps from -- and
-takes a stride short enough (``stride`` 1.8-1.85) that its stance under the
-horse's canter duty factor lasts the law's time (``lambda = Tc v / duty``,
-15 % under Alexander's stride); at 7 m/s a drop of 10 % keeps the leading
-fore leg's stance within 8 % of the others' (at 12 % it lifts 11 % early). The gallop keeps the defaults (its
-absolute law is beyond any leg, see quadsim.horse.speed; the amble's too).
-Every override was chosen among neighbouring ones (drop in 1 % steps, stride
-in 0.02-0.1 steps) as the one whose cut clip also loops within 3 deg and
-keeps its toe tips within 2.5 mm of the ground (several neighbours pin a
-foot into a 4-30 mm toe dip or slide).
+is Hoyt's at that speed (measured within 3 %: walk 1.00 and 1.03, trot 1.00
+and 0.98, rack 0.99 and 0.98, canter 1.00 and 1.00 of ``a v^b``). The canter
+keeps (nearly) the horse's own drop -- the gallop's, 12 % (mean root height
+1.32 m at 5 m/s against the gallop's 1.34 m; a canter lowered 8 % stands
+2.6 cm above the gallop it changes into and leaps from) -- and takes a stride
+short enough (``stride`` 1.75-1.85) that its stance under the horse's canter
+duty factor lasts the law's time (``lambda = Tc v / duty``, 19-24 % under
+Alexander's stride); at 7 m/s a drop of 11 % keeps the leading fore leg's
+stance within 5 % of the others' mean (at 10 % and 12 % it lifts 14 % early).
+The gallop keeps the defaults (its absolute law is beyond any leg, see
+quadsim.horse.speed; the amble's too; its ``stride`` does not change the
+sweep-capped step, and drops of 10-16 % leave the clip expanded to 12 m/s
+landing at 0.31-0.38 of the body speed and turning a joint at 2,480-2,650
+deg/s, the defaults' 0.34 and 2,650).
+
+Which cycle ships. A take of 8 s holds 4-12 steady cycles; at 60 fps a
+stride is not a whole number of frames, so each cut resamples differently
+and the figures that matter beat with the cut's sub-frame phase (one trot
+take's cycles slide 0-9.7 mm looped). :func:`best_cycle` ships the
+best-looping cycle that passes :func:`cycle_defects` (looped: wrap, touchdown
+labels, planted feet under 2 mm, toe tips within 2.5 mm) and, expanded to
+both ends of the speeds it serves, :func:`expansion_defects` (joints within
+1.4x the clip's fastest, every foot's contact time within 10 % of the law's,
+toe tips within 3 mm), and stops with each cycle's defects when none does.
+The overrides of trot 5.0 and canter 7.0 were re-chosen among neighbouring
+ones (drop in 1 % steps, stride in 0.05 steps) for a shipped clip that loops
+within 2.3 deg (all shipped clips do), stands within 3 % of the law and,
+expanded over its span, lands and turns most gently (trot 5.0 at 6.5 m/s:
+touchdown 0.18 of the body speed, a joint at 1,880 deg/s; at drop 0.12 and
+stride 2.05, 0.42 and 2,190). Several neighbours' best-looping cycles slid
+3.8-5.7 mm or dipped a toe 4-5 mm (trot 5.0 at drop 0.13 and stride 2.05,
+the previous bake's overrides, slid 5.7 mm; canter 7.0 at stride 1.8,
+3.8-3.9 mm).
 Each clip's manifest ``source`` names its overrides.
 
 Usage::
@@ -56,13 +76,21 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import math
+import sys
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
-from quadsim.analysis.metrics import foot_contacts
-from quadsim.horse.database import cut_cycles, looped, sample_motion
+from quadsim.analysis.appearance import toe_positions
+from quadsim.analysis.metrics import angular_velocity, foot_contacts, foot_slide, stance_intervals
+from quadsim.horse.database import (LEGS, Clip, Cycle, cut_cycles, looped, pose_distance_deg,
+                                    sample_motion)
+from quadsim.horse.playback import CLIP_ANCHORED
+from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, expand
+from quadsim.errors import InputError
+from quadsim.io.atomic import atomic_write_bytes
 from quadsim.io.bvh import write_bvh
 from quadsim.commands import Command
 from quadsim.locomotion.offline import simulate
@@ -80,27 +108,178 @@ BAKE_LOOP_TOLERANCE_DEG = 15.0
 #: few ms off moves the cut's ends by a centimetre or two. The residual is
 #: spread over the cycle either way (:func:`~quadsim.horse.database.cut_cycles`).
 BAKE_ROOT_TOLERANCE = 0.05
+#: A cut cycle is shipped only when, played as a loop at its speed, no planted foot
+#: slides this far (m; the clip database's loop test bound) ...
+BAKE_SLIDE = 0.002
+#: ... no toe tip dips this far below the ground (m) ...
+BAKE_TOE_DEPTH = 0.0025
+#: ... and each foot's measured touchdown is within this many frames of its label.
+BAKE_LABEL_FRAMES = 1.5
+#: Steady cycles of a take to consider (all of an 8 s take's).
+BAKE_CANDIDATES = 64
+#: The speeds (m/s) the data mode is measured at per gait (GAITS.md's horse speeds as
+#: the tests and tools/horse_transition_table.py take them, the gallop to the 12 m/s of
+#: tools/appearance_table.py): each clip is expanded to both ends of the part of its
+#: gait's span it is the nearest clip for (:meth:`~quadsim.horse.database.ClipDatabase.nearest`).
+SERVED = {"walk": (1.4, 1.8), "amble": (2.7, 3.8), "trot": (2.5, 6.5), "rack": (2.9, 5.5),
+          "canter": (4.4, 7.5), "gallop": (9.0, 12.0)}
+#: Expanded, no joint may turn faster than this many times the clip's fastest ...
+BAKE_WHIP = 1.4
+#: ... every foot's contact time is within this fraction of the law's ...
+BAKE_CONTACT = 0.10
+#: ... and no toe tip dips further below the ground than this (m; issue 13's bound).
+BAKE_EXPANDED_TOE_DEPTH = 0.003
 G = 9.81
 #: (gait in the procedural engine, clip gait, speed m/s, gait-table overrides):
 #: the overrides (see the module notes) make the clip's contact time Hoyt's
 #: ``a v^b`` at its speed; the defaults (``characters/gaits.toml`` and
 #: ``horse.toml``: drop walk 0.03, amble 0.03, trot 0.05, rack 0.04, canter
-#: 0.12, gallop 0.12; stride 2.3, amble 2.0, rack 1.8, gallop 2.1) step 6-32 %
+#: 0.12, gallop 0.12; stride 2.3, amble 2.0, rack 1.8, gallop 2.1) stand 3-32 %
 #: short (walk, trot, rack) or 17 % long (canter).
 CLIPS = [
     ("walk", "walk", 1.3, {"drop": 0.08, "stride": 2.2}),
     ("walk", "walk", 1.7, {"drop": 0.10, "stride": 2.2}),
     ("amble", "amble", 2.9, {"drop": 0.07}), ("amble", "amble", 3.5, {"drop": 0.07}),
     ("trot", "trot", 3.0, {"drop": 0.10, "stride": 2.08}),
-    ("trot", "trot", 5.0, {"drop": 0.13, "stride": 2.05}),
+    ("trot", "trot", 5.0, {"drop": 0.14, "stride": 2.0}),
     ("rack", "rack", 3.5, {"drop": 0.15, "stride": 2.3}),
     ("rack", "rack", 5.0, {"drop": 0.16, "stride": 2.2}),
     ("canter", "canter", 5.0, {"stride": 1.85}),
-    ("canter", "canter", 7.0, {"drop": 0.10, "stride": 1.8}),
+    ("canter", "canter", 7.0, {"drop": 0.11, "stride": 1.75}),
     ("transverse_gallop", "gallop", 11.0, {}),
 ]
 #: Flight time added to the gallop's suspension to make the leap (s).
 LEAP_FLIGHT = 0.45
+
+
+def cycle_defects(cyc: Cycle) -> list[str]:
+    """What keeps a cut cycle from shipping, measured on it played as a loop.
+
+    The cycle, looped four times at its speed (as the data mode plays it), must
+    wrap from its last frame to its first no further than 1.5 times its largest
+    frame-to-frame step plus 1 deg, land each foot twice in the middle two loops
+    within :data:`BAKE_LABEL_FRAMES` of its touchdown label, keep its planted
+    feet within :data:`BAKE_SLIDE` and its toe tips within :data:`BAKE_TOE_DEPTH`
+    of the ground. The cut's sub-frame phase decides these: at 60 fps a trot
+    stride of 38.6 frames resamples to 38 or 39, and a lift-off falling just
+    after a frame leaves the foot low but moving on it (a 5.7 mm slide in one
+    such trot cycle, none in its neighbours).
+
+    Returns
+    -------
+    defects : list of str
+        Empty when the cycle may ship.
+    """
+    n = cyc.frames
+    q = cyc.motion.rotations
+    out = []
+    step = float(pose_distance_deg(q[1:], q[:-1]).max())
+    wrap = float(pose_distance_deg(q[-1], q[0]))
+    if wrap > 1.5 * step + 1.0:
+        out.append(f"wraps {wrap:.1f} deg (largest step {step:.1f})")
+    m = looped(cyc.motion, 4, cyc.speed)
+    feet = m.foot_positions()
+    con = foot_contacts(feet, m.fps)
+    iv = stance_intervals(con, m.fps, feet)
+    for i, leg in enumerate(LEGS):
+        on = iv[i][np.isfinite(iv[i][:, 0]), 0] * m.fps
+        inner = on[(on > n) & (on < 3 * n)]
+        if len(inner) != 2:
+            out.append(f"{leg} lands {len(inner)} times in two loops")
+            continue
+        d = (inner[0] - cyc.touchdown[i]) % n
+        if min(d, n - d) > BAKE_LABEL_FRAMES:
+            out.append(f"{leg} lands {min(d, n - d):.1f} frames from its label")
+    _, slide = foot_slide(feet[n:], con[n:])
+    if slide >= BAKE_SLIDE:
+        out.append(f"a planted foot slides {slide * 1000:.1f} mm")
+    depth = -float(toe_positions(m)[..., 1].min())
+    if depth > BAKE_TOE_DEPTH:
+        out.append(f"a toe tip dips {depth * 1000:.1f} mm")
+    return out
+
+
+def _peak_speed_deg_s(motion: Motion) -> float:
+    """Largest joint angular speed (deg/s) of a looped clip, across its seam too."""
+    q = np.concatenate([motion.rotations, motion.rotations[:2]])
+    return float(np.degrees(angular_velocity(q, motion.fps)).max())
+
+
+def served_span(gait: str, speed: float) -> tuple[float, float]:
+    """The speeds (m/s) of :data:`SERVED` whose nearest clip of ``gait`` is the one at
+    ``speed`` (the gait's clips in :data:`CLIPS`; boundaries at geometric means)."""
+    lo, hi = SERVED[gait]
+    vs = sorted(v for _, g, v, _ in CLIPS if g == gait)
+    k = vs.index(speed)
+    a = lo if k == 0 else math.sqrt(vs[k - 1] * vs[k])
+    b = hi if k == len(vs) - 1 else math.sqrt(vs[k] * vs[k + 1])
+    return a, b
+
+
+def expansion_defects(clip: Clip, character, speeds) -> list[str]:
+    """What goes wrong with ``clip`` expanded to each of ``speeds`` (m/s) as the data mode
+    expands it (:func:`quadsim.horse.speed.expand`, the amble and gallop relative to the
+    clip): a joint turning faster than :data:`BAKE_WHIP` times the clip's fastest (a leg
+    landing within a few per cent of straight, asked for a longer step, is pulled straight
+    by the IK for a frame: a trot's hind stifle at 2,300 deg/s against its clip's 1,450),
+    a foot's contact time off the law's by more than :data:`BAKE_CONTACT`, a toe tip
+    deeper than :data:`BAKE_EXPANDED_TOE_DEPTH`.
+
+    Returns
+    -------
+    defects : list of str
+        Empty when every expansion is sound.
+    """
+    out = []
+    anchor = "clip" if clip.gait in CLIP_ANCHORED else "law"
+    top = _peak_speed_deg_s(clip.motion)
+    for v in speeds:
+        e = expand(clip, character, v, anchor=anchor)
+        w = _peak_speed_deg_s(e.motion)
+        if w > BAKE_WHIP * top:
+            out.append(f"at {v:.2f} m/s a joint turns {w:,.0f} deg/s ({w / top:.2f}x the clip's)")
+        want = (float(contact_time(clip.gait, v)) if anchor == "law"
+                else clip_contact_time(clip) * (v / clip.speed) ** HOYT[clip.gait][1])
+        m = looped(e.motion, 6, e.speed)
+        feet = m.foot_positions()
+        iv = stance_intervals(foot_contacts(feet, m.fps), m.fps, feet)
+        for i, leg in enumerate(LEGS):
+            s = iv[i][np.isfinite(iv[i]).all(axis=1)][1:-1]
+            dev = float(np.abs((s[:, 1] - s[:, 0]) / want - 1).max()) if len(s) else np.inf
+            if dev > BAKE_CONTACT:
+                out.append(f"at {v:.2f} m/s {leg} stands {dev:.0%} off the law's {want:.3f} s")
+        depth = -float(toe_positions(m)[..., 1].min())
+        if depth > BAKE_EXPANDED_TOE_DEPTH:
+            out.append(f"at {v:.2f} m/s a toe tip dips {depth * 1000:.1f} mm")
+    return out
+
+
+def best_cycle(take: Motion, character, gait: str, speed: float, where: str) -> Cycle:
+    """The best-looping cut cycle of ``take`` that :func:`cycle_defects` passes and, as
+    a ``gait`` clip at nominal ``speed``, :func:`expansion_defects` over its
+    :func:`served_span`.
+
+    Raises
+    ------
+    RuntimeError
+        When no steady cycle of the take passes, naming each one's defects.
+    """
+    cycles = cut_cycles(take, character=character, where=where, count=BAKE_CANDIDATES,
+                        loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
+                        root_tolerance=BAKE_ROOT_TOLERANCE)
+    report = []
+    span = served_span(gait, speed)
+    for cyc in sorted(cycles, key=lambda c: c.loop_error_deg):
+        bad = cycle_defects(cyc)
+        if not bad:
+            clip = Clip(where, gait, cyc.speed, cyc.frames, cyc.touchdown, cyc.lead, cyc.motion)
+            bad = expansion_defects(clip, character, span)
+        if not bad:
+            return cyc
+        report.append(f"  cut at {cyc.start_time:.3f} s (loop {cyc.loop_error_deg:.1f} deg): "
+                      + "; ".join(bad))
+    raise RuntimeError(f"{where}: no cycle of the take can ship:\n" + "\n".join(report)
+                       + "\nchoose other gait-table overrides for it in CLIPS")
 
 
 def _leap(gallop: Motion, speed: float, td: np.ndarray):
@@ -162,8 +341,13 @@ def _describe(over: dict) -> str:
 
 
 def bake(out: Path) -> list[str]:
+    """Bake every clip of :data:`CLIPS` and the leap into ``out``; the log lines.
+
+    Every clip is made before any file is written, so a take with no cycle to
+    ship (:func:`best_cycle`) leaves ``out`` as it was; each file is then
+    replaced whole (the manifest last).
+    """
     horse = load_character("horse")
-    out.mkdir(parents=True, exist_ok=True)
     lines = [
         '# The default horse clip database (see quadsim.horse.database).',
         '# Made by tools/bake_horse_clips.py; regenerate with',
@@ -172,15 +356,14 @@ def bake(out: Path) -> list[str]:
         '',
     ]
     log = []
+    motions = {}
     gallop = None
     for proc, gait, v, over in CLIPS:
         take = simulate(_with_overrides(horse, proc, over), Command(speed=v, gait=proc),
                         TAKE_SECONDS, FPS)
-        cyc = cut_cycles(take, character=horse, where=f"{gait} {v} m/s take",
-                         loop_tolerance_deg=BAKE_LOOP_TOLERANCE_DEG,
-                         root_tolerance=BAKE_ROOT_TOLERANCE)[0]
+        cyc = best_cycle(take, horse, gait, v, f"{gait} {v} m/s take")
         name = f"{gait}_{v:.1f}"
-        write_bvh(cyc.motion, out / f"{name}.bvh", precision=6)
+        motions[name] = cyc.motion
         td = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in cyc.touchdown)))
         lines += [f'[clips."{name}"]', f'file = "{name}.bvh"', f'gait = "{gait}"',
                   f"speed = {cyc.speed:.4f}", f"frames = {cyc.frames}",
@@ -194,12 +377,12 @@ def bake(out: Path) -> list[str]:
                   f'spread over the cycle, stance feet pinned by IK)"'),
                   ""]
         log.append(f"{name}: {cyc.frames} frames, {cyc.speed:.3f} m/s, td {td}, "
-                   f"loop {cyc.loop_error_deg:.2f} deg")
+                   f"loop {cyc.loop_error_deg:.2f} deg, cut at {cyc.start_time:.3f} s")
         if gait == "gallop":
             gallop = (cyc, name)
     cyc, gname = gallop
     motion, td, rise, clearance, tf = _leap(cyc.motion, cyc.speed, cyc.touchdown)
-    write_bvh(motion, out / "leap.bvh", precision=6)
+    motions["leap"] = motion
     tdd = dict(zip(("LF", "RF", "LH", "RH"), (int(x) for x in td)))
     lines += ['[clips.leap]', 'file = "leap.bvh"', 'gait = "leap"', 'start_gait = "gallop"',
               f"speed = {cyc.speed:.4f}", f"frames = {len(motion)}",
@@ -211,7 +394,10 @@ def bake(out: Path) -> list[str]:
               f'constant speed; height = highest point of the lowest foot in the flight"'), ""]
     log.append(f"leap: {len(motion)} frames, flight {tf:.3f} s, rise {rise:.3f} m, "
                f"clearance {clearance:.3f} m, td {tdd}")
-    (out / "manifest.toml").write_text("\n".join(lines), encoding="utf-8")
+    out.mkdir(parents=True, exist_ok=True)
+    for name, m in motions.items():
+        write_bvh(m, out / f"{name}.bvh", precision=6)
+    atomic_write_bytes(out / "manifest.toml", "\n".join(lines).encode("utf-8"))
     return log
 
 
@@ -219,7 +405,12 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--out", default=str(characters_dir() / "horse" / "clips"))
     a = p.parse_args(argv)
-    for line in bake(Path(a.out)):
+    try:
+        log = bake(Path(a.out))
+    except (RuntimeError, InputError) as e:
+        print(f"bake_horse_clips: {e}", file=sys.stderr)
+        return 1
+    for line in log:
         print(line)
     return 0
 

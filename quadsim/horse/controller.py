@@ -38,7 +38,8 @@ Contact times. The controller plays :func:`~quadsim.horse.speed.expand`'s
 clips as they are (the feet are planted through the clip's own contacts), so
 a foot's contact time is the expanded clip's: within 10 % of ``a v^b`` for the
 walk, trot, rack and canter (their clips are baked to step as the law says at
-their own speeds, so expansion moves a foot by at most about 6 %), and of the
+their own speeds, so expansion moves a foot by at most 7 % over the walk's,
+rack's and canter's measured speeds and 10 % over the trot's, at 6.5 m/s), and of the
 clip-anchored ``Tc0 (v/v0)^b`` for the amble and gallop, whose absolute law
 asks for strides no horse leg of this size reaches (see
 :mod:`quadsim.horse.speed`).

@@ -49,9 +49,9 @@ so the walk, trot, rack and canter are within reach with the body lowered
 (the walk, trot and rack clips are baked with it, 8-16 % of the pelvis
 height, and step within 3 % of the law at their own speeds: see
 ``tools/bake_horse_clips.py``), the amble and the gallop are not (their
-baked clips' contact times are 57-61 % and 68 % under ``a v^b``: 0.30 s
-against 0.70 s at 2.9 m/s, 0.09 s against 0.29 s at 11 m/s; the gallop
-clip's 0.09 s is the racehorse's).
+baked clips' contact times are 49-53 % and 62 % under ``a v^b``: 0.36 s
+against 0.70 s at 2.9 m/s, 0.11 s against 0.29 s at 11 m/s; the gallop
+clip's 0.11 s is the racehorse's).
 
 Two anchors
 -----------
