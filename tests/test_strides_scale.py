@@ -4,7 +4,7 @@ the feet's contacts found from their heights), never from the controller's plan.
 
 GAITS.md: stride length ``lambda / h = 2.3 Fr^0.3`` (Alexander); racehorses gallop
 at 2.0-2.4 Hz with strides of 4.5-7.1 m over 9-17 m/s; dogs trot with duty factors
-of 0.30-0.36.
+of 0.30-0.36 (the issue asks the dog cub for 0.30-0.40).
 """
 
 from __future__ import annotations
