@@ -160,11 +160,13 @@ def test_flight_acceleration_sees_a_ballistic_fall(gallop):
 
 
 def test_a_foot_dropped_onto_the_ground_is_seen_descending(gallop):
-    """Lift the whole body 4 cm on the flight frame before each landing: the
-    landing foot now falls 4 cm more in its last frame, which the descent
+    """Lift the whole body 10 cm on the flight frame before each landing: the
+    landing foot now falls 10 cm more in its last frame, which the descent
     ratio sees and the ground speed ratio does not (a vertical drop, not a
     skid). The p90 is taken over every touchdown, a quarter of them after a
-    flight, so it rises by most of ``0.04 fps / body speed``, not all."""
+    flight, so it is at least the drop's own ``0.1 fps / body speed`` (0.46;
+    unlifted 0.27). (Lifted 4 cm, it rose by 0.07 of the drop's 0.18: the
+    landings after a flight already held the largest unlifted descents.)"""
     from quadsim.skeleton.contacts import foot_contacts
 
     r0 = appearance_report(gallop, start=2.0)
@@ -173,12 +175,13 @@ def test_a_foot_dropped_onto_the_ground_is_seen_descending(gallop):
     air = ~con.any(axis=1)
     before_landing = np.flatnonzero(air[:-1] & ~air[1:])
     root = np.array(gallop.root_positions)
-    root[before_landing, 1] += 0.04
+    root[before_landing, 1] += 0.1
     r1 = appearance_report(replace(gallop, root_positions=root), start=2.0)
     speed = np.linalg.norm(np.diff(root[:, [0, 2]], axis=0), axis=1).max() * fps
     assert len(before_landing) >= 8
-    assert r1["touchdown_descent_ratio_p90"] >= (r0["touchdown_descent_ratio_p90"]
-                                                 + 0.7 * 0.04 * fps / speed)
+    drop = 0.1 * fps / speed
+    assert drop > r0["touchdown_descent_ratio_p90"]
+    assert r1["touchdown_descent_ratio_p90"] >= drop
     assert r1["touchdown_speed_ratio_p90"] == pytest.approx(r0["touchdown_speed_ratio_p90"])
 
 

@@ -30,7 +30,7 @@ DIGITIGRADE = {
     "hind": ["hip", "knee", "hock", "paw"],
 }
 UNGULIGRADE = {
-    "fore": ["shoulder", "elbow", "carpus", "fetlock", "pastern", "hoof"],
+    "fore": ["scapula", "shoulder", "elbow", "carpus", "fetlock", "pastern", "hoof"],
     "hind": ["hip", "stifle", "hock", "fetlock", "pastern", "hoof"],
 }
 CATS_AND_DOGS_GAITS = ["walk", "trot", "pace", "canter", "transverse_gallop", "rotary_gallop"]
