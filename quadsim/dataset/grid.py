@@ -27,6 +27,7 @@ import hashlib
 import json
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 from quadsim.errors import InputError, read_toml
@@ -95,16 +96,17 @@ class ClipSpec:
                 "turn_rate_deg_s": self.turn_rate_deg_s, "seed": self.seed,
                 "seconds": self.seconds, "fps": self.fps, "format": self.format}
 
-    @property
+    @cached_property
     def id(self) -> str:
         """Stable identifier: character, gait and 12 hex digits of a hash of every
-        parameter (the character file by its content), e.g. ``leopard-trot-3f2a...``."""
+        parameter (the character file by its content), e.g. ``leopard-trot-3f2a...``
+        (found once a spec)."""
         key = dict(self.parameters(), character_file=self.digest)
         text = json.dumps(key, sort_keys=True, separators=(",", ":"))
         h = hashlib.sha256(text.encode("utf-8")).hexdigest()[:12]
         return f"{_slug(self.character)}-{_slug(self.gait)}-{h}"
 
-    @property
+    @cached_property
     def path(self) -> str:
         """The clip's file relative to the sweep's folder (``clips/<id>.<format>``)."""
         return f"clips/{self.id}.{self.format}"
