@@ -74,7 +74,7 @@ def _ground(motion) -> np.ndarray:
 def toe_positions(motion, anatomy: Anatomy | None = None) -> np.ndarray:
     """World positions of the four toe tips (the feet's end sites), shape (T, 4, 3) (m)."""
     a = anatomy or find_anatomy(motion.skeleton, motion.foot_joints)
-    G = motion.world_rotations()[:, list(a.feet)]
+    G = motion.world_rotations_of(a.feet)
     P = motion.world_positions()[:, list(a.feet)]
     return P + np.einsum("tlij,lj->tli", G, a.toe_offsets)
 
@@ -343,9 +343,10 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     a = anatomy
     fps = float(motion.fps)
     P = motion.world_positions()[k0:]
-    G = motion.world_rotations()[k0:]
+    Gf = motion.world_rotations_of(a.feet)[k0:]
+    Gh = motion.world_rotations_of(a.head)[k0:, 0]
     hinges = _hinges(motion, a)
-    s = _series(P, G[:, list(a.feet)], G[:, a.head], _ground(motion)[k0:], a,
+    s = _series(P, Gf, Gh, _ground(motion)[k0:], a,
                 int(motion.skeleton.parents[a.head]), fps)
     s["inner"] = _inner_angles(P, hinges)
     batch = {k: None if v is None else v[None] for k, v in s.items()}
@@ -380,8 +381,8 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
     fps = float(m0.fps)
     feet = list(a.feet)
     P = np.stack([m.world_positions() for m in motions])
-    Gf = np.stack([m.world_rotations()[:, feet] for m in motions])
-    Gh = None if a.head_from_parent else np.stack([m.world_rotations()[:, a.head]
+    Gf = np.stack([m.world_rotations_of(feet) for m in motions])
+    Gh = None if a.head_from_parent else np.stack([m.world_rotations_of(a.head)[:, 0]
                                                    for m in motions])
     ground = np.stack([_ground(m) for m in motions])
     hinges = _hinges(m0, a)

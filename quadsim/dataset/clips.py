@@ -120,7 +120,9 @@ def generate(specs: Sequence[ClipSpec]) -> list:
     # clip-major arrays, one frame of every clip written a step: each clip's own
     # arrays are then contiguous; the step's matrices become quaternions and the
     # forward kinematics of those while still in the cache (quadsim.dataset.kernels)
-    quats, G, P = np.empty((n, T, J, 4)), np.empty((n, T, J, 3, 3)), np.empty((n, T, J, 3))
+    a = _skeleton_anatomy(ch.skeleton, ch.foot_joints)
+    keep = _kept_rotations(a)
+    quats, G, P = np.empty((n, T, J, 4)), np.empty((n, T, len(keep), 3, 3)), np.empty((n, T, J, 3))
     root, contacts = np.empty((n, T, 3)), np.empty((n, T, 4), dtype=bool)
     heading, spine, v, duty = (np.empty((n, T)) for _ in range(4))
     err, amp, theta = np.empty((n, T, 4)), np.empty((n, T, 5)), np.empty((n, T, 4))
@@ -131,7 +133,7 @@ def generate(specs: Sequence[ClipSpec]) -> list:
         for k in range(T):
             # frame 0 is the starting state (a step of 0 s), as quadsim.simulate
             fr = b.step(speed, turn, None, gait, dt if k else 0.0, pose=True)
-            quaternions_and_kinematics(fr["local_rotations"][0], fr["root"], plan,
+            quaternions_and_kinematics(fr["local_rotations"][0], fr["root"], plan, keep,
                                        quats[:, k], G[:, k], P[:, k])
             err[:, k], root[:, k], contacts[:, k] = fr["ik_error"][0], fr["root"], fr["contacts"]
             heading[:, k], spine[:, k], v[:, k] = fr["heading"], fr["spine"], fr["speed"]
@@ -146,24 +148,39 @@ def generate(specs: Sequence[ClipSpec]) -> list:
             ch.skeleton, first.fps, root[i], quats[i], contacts[i], gaits[i], ch.foot_joints,
             {"phase": phase[i], "spine": spine[i], "duty": duty[i], "speed": v[i],
              "ik_error": err[i], "heading": heading[i], "cpg_amplitude": amp[i]})
-        m._given_kinematics(G[i], P[i])
+        m._given_kinematics(P[i], keep, G[i])
         out.append(m)
     return out
 
 
-def _anatomy(motion):
-    """The anatomy of the motion's skeleton (None for no quadruped), found once."""
+def _skeleton_anatomy(skeleton, foot_joints):
+    """The anatomy of a skeleton with these foot joints (None for no quadruped), found
+    once."""
     from quadsim.skeleton.anatomy import find_anatomy
 
-    key = (id(motion.skeleton), tuple(motion.foot_joints))
+    key = (id(skeleton), tuple(foot_joints))
     hit = _ANATOMY.get(key)
-    if hit is None or hit[0] is not motion.skeleton:
+    if hit is None or hit[0] is not skeleton:
         try:
-            a = find_anatomy(motion.skeleton, motion.foot_joints)
+            a = find_anatomy(skeleton, foot_joints)
         except ValueError:  # no quadruped structure to measure the trunk and head on
             a = None
-        hit = _ANATOMY[key] = (motion.skeleton, a)
+        hit = _ANATOMY[key] = (skeleton, a)
     return hit[1]
+
+
+def _anatomy(motion):
+    """The anatomy of the motion's skeleton (None for no quadruped), found once."""
+    return _skeleton_anatomy(motion.skeleton, motion.foot_joints)
+
+
+def _kept_rotations(anatomy) -> np.ndarray:
+    """The joints whose world rotations a batch keeps: those measuring its motions
+    reads (:func:`quadsim.analysis.appearance.appearance_many`: the feet, for their
+    toe tips, and the head)."""
+    if anatomy is None:
+        return np.zeros(0, dtype=np.int64)
+    return np.array(list(dict.fromkeys([*anatomy.feet, anatomy.head])), dtype=np.int64)
 
 
 def measure_clip(motion):

