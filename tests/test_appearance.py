@@ -203,3 +203,19 @@ def test_quadsim_metrics_reports_what_a_viewer_sees_from_a_bvh(gallop, tmp_path,
         assert got[key] == pytest.approx(want[key], rel=1e-3, abs=1e-3), key
     assert main(["metrics", str(path), "--start", "2"]) == 0
     assert "what a viewer sees" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("n", [3, 4, 7, 30])
+def test_the_flight_fit_is_the_least_squares_parabola(n):
+    """The flight's curvature is numpy's least-squares quadratic fit, found in closed
+    form: a parabola of -g/2 comes back exactly, noise as polyfit sees it."""
+    from quadsim.analysis.appearance import _quadratic_coefficient
+
+    fps = 60.0
+    t = np.arange(n) / fps
+    rng = np.random.default_rng(n)
+    y = 0.3 + 1.5 * t - 0.5 * 9.81 * t * t
+    assert _quadratic_coefficient(y, fps) == pytest.approx(-0.5 * 9.81, rel=1e-9)
+    noisy = y + rng.normal(scale=0.01, size=n)
+    assert _quadratic_coefficient(noisy, fps) == pytest.approx(
+        np.polyfit(t - t.mean(), noisy, 2)[0], rel=1e-9, abs=1e-9)

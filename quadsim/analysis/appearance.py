@@ -130,6 +130,17 @@ def _finite_sorted(x) -> np.ndarray:
     return np.sort(x[np.isfinite(x)])
 
 
+def _quadratic_coefficient(y: np.ndarray, fps: float) -> float:
+    """``c2`` of the least-squares fit ``y ~ c0 + c1 t + c2 t^2`` of samples ``y`` (n >= 3)
+    taken ``1 / fps`` s apart: with ``t`` centred on the middle sample, the odd sums
+    of ``t`` vanish and the normal equations give ``c2 = (n S(t^2 y) - S(t^2) S(y)) /
+    (n S(t^4) - S(t^2)^2)`` (``np.polyfit(t, y, 2)[0]``, without its solver)."""
+    n = len(y)
+    t2 = ((np.arange(n) - 0.5 * (n - 1)) / fps) ** 2
+    s2 = t2.sum()
+    return float((n * (t2 @ y) - s2 * y.sum()) / (n * (t2 @ t2) - s2 * s2))
+
+
 def _median(x) -> float | None:
     """``np.median`` of the finite values (None without any), from one sort."""
     s = _finite_sorted(x)
@@ -429,9 +440,7 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
     accel = []
     for s0, e in _runs(~contacts.any(axis=1)):
         if e - s0 >= MIN_FLIGHT_FRAMES and s0 > 0 and e < T:
-            t = np.arange(s0, e) / fps
-            c2 = np.polyfit(t - t.mean(), mid[s0:e, Y], 2)[0]
-            accel.append(2.0 * c2 / GRAVITY)
+            accel.append(2.0 * _quadratic_coefficient(mid[s0:e, Y], fps) / GRAVITY)
 
     # joints: angular speed from the local rotations, hinge locking in swing
     w = np.degrees(joint_speed)
