@@ -40,6 +40,9 @@ class PlaceRig(NamedTuple):
         pitch is measured.
     below : ndarray of int64, shape (4, K)
         Per leg, the joints below its foot joint in joint order, padded with -1.
+    toes : ndarray, shape (4, 3)
+        Per leg, the toe tip (the foot joint's end site) in the foot's frame (m);
+        zeros without one.
     """
 
     parents: np.ndarray
@@ -54,6 +57,7 @@ class PlaceRig(NamedTuple):
     hind: float
     fore: float
     below: np.ndarray
+    toes: np.ndarray
 
 
 class PlaceTuning(NamedTuple):

@@ -40,6 +40,7 @@ from numba import njit
 
 from ..kinematics.chains import copy_into, fk_row, mul_into, mul_tn_into, two_bone_row
 from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
+from .ground_kernel import SETTLE_TURN, ground_height, ground_heights, toe_onto_ground
 
 #: Slack (cycles) of the contact test at a contact's ends (rounding of measured ends).
 CONTACT_SLACK = 1e-9
@@ -63,26 +64,6 @@ CAP_EASE = 0.04
 
 
 # ------------------------------------------------------------------ small pieces
-@njit(cache=True)
-def ground_height(ramps, x, z):
-    """Height (m) of the ramp field at the horizontal point ``(x, z)``: the
-    newest ramp whose half-plane holds the point, else 0."""
-    h = 0.0
-    for r in range(ramps.shape[0]):
-        s = (x - ramps[r, 0]) * ramps[r, 3] + (z - ramps[r, 1]) * ramps[r, 4]
-        if s >= 0.0:
-            h = ramps[r, 2] + ramps[r, 5] * s
-    return h
-
-
-@njit(cache=True)
-def ground_heights(ramps, xz, out):
-    """:func:`ground_height` of many points: ``xz`` (n, 2) horizontal points (m),
-    ``out`` (n,) their heights (m)."""
-    for k in range(xz.shape[0]):
-        out[k] = ground_height(ramps, xz[k, 0], xz[k, 1])
-
-
 @njit(cache=True)
 def _smoothstep(x):
     x = min(max(x, 0.0), 1.0)
@@ -269,7 +250,7 @@ def place_row(frame, rig, tuning, state, ramps, out):
     _legs_onto_targets(rig, G, A, B, F, sag, tgt, L, M, out.legs[4, 0])
     rotations, ground = out.rotations, out.ground
     fk_row(rig.parents, rig.offsets, L, root, G, P)
-    _hold_attitudes(rig, tuning, state.feet, G, P, L, M[14], rotations)
+    _hold_attitudes(rig, tuning, state.feet, ramps, G, P, L, M[14], rotations)
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
     for i in range(4):
@@ -278,11 +259,13 @@ def place_row(frame, rig, tuning, state, ramps, out):
 
 
 @njit(cache=True, inline="always")
-def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
+def _hold_attitudes(rig, tuning, feet, ramps, G, P, L, W, rotations):
     """Each planted foot keeps the world rotation it struck with, and a lifted one
     eases from it to the pose's as its offset fades (``L``, ``G`` and ``P`` of the
     feet and the joints below them updated; ``W`` (3, 3) and the feet's rows of
-    ``rotations`` (J, 4) work space).
+    ``rotations`` (J, 4) work space). A foot that strikes toe down is
+    pitched about its joint until its toe tip is (nearly) on the ground, a
+    little a frame from its strike on (:func:`~.ground_kernel.toe_onto_ground`).
 
     The two-bone IK swings the pair and leaves the bones below at their clip
     angles, so a planted paw turned with the lower leg as the body passed over
@@ -294,7 +277,8 @@ def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
         f = rig.feet[i]
         q = rotations[f]
         if feet.struck[i]:
-            quaternion_from_matrix(G[f], feet.attitude[i])
+            toe_onto_ground(G[f], P[f], rig.toes[i], ramps, W)
+            quaternion_from_matrix(W, feet.attitude[i])
         w = 1.0 if feet.planted[i] else 1.0 - _smoothstep(feet.air[i] / fade_t)
         if w <= 0.0:
             continue
@@ -304,6 +288,9 @@ def _hold_attitudes(rig, tuning, feet, G, P, L, W, rotations):
             matrix_from_quaternion(q, W)
         else:
             matrix_from_quaternion(feet.attitude[i], W)
+            # a toe still deeper than the strike's turn could lift turns on, frame by frame
+            if feet.planted[i] and toe_onto_ground(W, P[f], rig.toes[i], ramps, W, SETTLE_TURN):
+                quaternion_from_matrix(W, feet.attitude[i])
         mul_tn_into(G[parents[f]], W, L[f])
         copy_into(W, G[f])
         for m in range(rig.below.shape[1]):  # the joints below the foot follow it

@@ -104,7 +104,9 @@ class Placement:
                             np.ascontiguousarray(skel.offsets, dtype=float),
                             self.lead.chain, self.lead.share, self.lead.tau, feet, tops, mids,
                             float(centre), self.girdles[0], self.girdles[1],
-                            _below(skel.parents, feet))
+                            _below(skel.parents, feet),
+                            np.array([skel.end_sites.get(skel.names[f], np.zeros(3))
+                                      for f in feet], dtype=float).reshape(4, 3))
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
         self._place_row = FixedEntry(place_row)

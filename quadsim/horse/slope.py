@@ -20,7 +20,7 @@ import math
 import numpy as np
 
 from ..errors import InputError
-from .place_kernel import ground_heights
+from .ground_kernel import ground_heights
 
 #: Steepest slope allowed (rad): the legs of a pitched horse reach about 20 degrees.
 MAX_SLOPE = math.radians(20.0)
