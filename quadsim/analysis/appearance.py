@@ -223,7 +223,10 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         ``head_pitch_range_deg``, ``toe_below_ground_mm`` (deepest),
         ``toe_slide_mm_p90``, ``touchdown_speed_ratio_p90``,
         ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
-        per flight phase; -1 is a ballistic fall), ``peak_joint_speed_deg_s``
+        per flight phase; -1 is a ballistic fall), ``trunk_jolt_g`` (the pelvis's
+        or withers' largest vertical acceleration, either way, in g: a trunk
+        dropped onto its landing legs in one frame shows here),
+        ``peak_joint_speed_deg_s``
         and its ``peak_joint``, ``locked_swing_fraction`` (worst hinge) and its
         ``locked_joint``, and the same of the elbows and knees alone
         (``elbow_knee_locked_fraction``, ``elbow_knee_locked_joint``; in each
@@ -269,6 +272,7 @@ def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -
         "feet": feet, "toes": toes, "root": root,
         "body_speed": np.linalg.norm(vel, axis=-1),
         "mid": 0.5 * (P[..., a.pelvis, :] + P[..., a.withers, :]),
+        "girdles_y": P[..., [a.pelvis, a.withers], Y],  # (..., T, 2)
         "pitch": trunk_pitch(P, a),
         "flex": spine_flexion(P, a),
         "head": np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z])),
@@ -442,6 +446,11 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         if e - s0 >= MIN_FLIGHT_FRAMES and s0 > 0 and e < T:
             accel.append(2.0 * _quadratic_coefficient(mid[s0:e, Y], fps) / GRAVITY)
 
+    # the trunk's jolts: the girdles' largest vertical acceleration (second differences)
+    gy = s["girdles_y"]
+    jolt = (float(np.abs(np.diff(gy, 2, axis=0)).max()) * fps * fps / GRAVITY
+            if len(gy) >= 3 else None)
+
     # joints: angular speed from the local rotations, hinge locking in swing
     w = np.degrees(joint_speed)
     peak_j = int(np.argmax(w.max(axis=0))) if w.size else 0
@@ -484,6 +493,7 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         "liftoff_speed_ratio_p90": _pct(lo_ratio, 90),
         "flights": len(accel),
         "flight_accel_g": [float(x) for x in accel],
+        "trunk_jolt_g": jolt,
         "peak_joint_speed_deg_s": float(w.max()) if w.size else None,
         "peak_joint": a.names[peak_j],
         "locked_swing_fraction": locked,
@@ -515,7 +525,8 @@ def format_appearance(report: dict) -> str:
         f"{f(report['liftoff_speed_ratio_p90'], '.2f')}",
         f"flight phases {report['flights']}: vertical acceleration "
         + (", ".join(f"{x:+.2f}" for x in acc[:8]) + (" ..." if len(acc) > 8 else "") + " g"
-           if acc else "-"),
+           if acc else "-")
+        + f"; trunk jolts up to {f(report['trunk_jolt_g'], '.1f')} g",
         f"peak joint speed {f(report['peak_joint_speed_deg_s'], '.0f')} deg/s "
         f"({report['peak_joint']}); locked straight in swing "
         f"{f(None if report['locked_swing_fraction'] is None else 100 * report['locked_swing_fraction'], '.1f')} %"
