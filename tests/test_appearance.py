@@ -224,8 +224,8 @@ def test_the_flight_fit_is_the_least_squares_parabola(n):
 def test_the_trunk_jolt_is_the_girdles_largest_vertical_acceleration():
     """A trunk carried smoothly shows its own acceleration; one lowered 5 cm in a
     single frame shows the step's second difference, ``0.05 fps^2 / g`` (18 g at
-    60 fps), both measured from the joint positions. Standing still, the horse's
-    trunk does not move: no jolt."""
+    60 fps), both measured from the joint positions. Carried level with its pose
+    held, the trunk does not jolt at all."""
     m = quadsim.run("horse", gait="walk", seconds=4)
     fps = m.fps
     a = find_anatomy(m.skeleton, m.foot_joints)

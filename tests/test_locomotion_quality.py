@@ -119,7 +119,7 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
 #: dropped onto its landing legs in one frame: a landing foot's leg cannot reach
 #: the ground from where the trunk's course has it, and the reach cap pulls the
 #: girdle down on the landing frame. Lowering the trunk ahead of each landing
-#: (branch wip-landing) brought these to 2-6 g but broke the horse's stifle limits
+#: (branch wip-landing) brought these to 1.4-7.7 g but broke the horse's stifle limits
 #: and the clip sets' loop seams; it has not landed.
 TRUNK_JOLT_G = 6.0
 JOLTS_ON_MAIN = {("dog_cub", "walk"): 10.2, ("dog_cub", "trot"): 11.0, ("dog_cub", "pace"): 6.9,
@@ -136,8 +136,8 @@ JOLTS_ON_MAIN = {("dog_cub", "walk"): 10.2, ("dog_cub", "trot"): 11.0, ("dog_cub
     for c in CHARACTERS for g in ("walk", "trot", "pace")])
 def test_the_trunk_is_not_dropped_onto_its_landing_legs(character, gait):
     """In the walk, trot and pace neither the pelvis nor the withers accelerates
-    vertically by more than 6 g in any frame (a trotting dog's trunk peaks at
-    about 2 g; a girdle lowered 3 cm in one frame reads 11 g at 60 fps)."""
+    vertically by more than 6 g in any frame (a girdle lowered 3 cm from one
+    frame to the next reads 11 g at 60 fps)."""
     assert appearance_report(steady(character, gait))["trunk_jolt_g"] <= TRUNK_JOLT_G
 
 

@@ -51,7 +51,6 @@ def ground_heights(ramps, xz, out):
         out[k] = ground_height(ramps, xz[k, 0], xz[k, 1])
 
 
-
 @njit(cache=True)
 def toe_onto_ground(Gf, Pf, toe, ramps, W, max_turn=MAX_TURN):
     """``W`` (3, 3) = the foot's world rotation ``Gf``, pitched about the foot joint
