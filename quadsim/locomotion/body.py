@@ -75,6 +75,28 @@ PITCH_FROM_FLEX = 0.16
 
 #: A planted foot is kept within this fraction of its leg's reach.
 STANCE_REACH = 0.97
+#: Landings in the flexing gaits: a swinging foot's touchdown point caps its
+#: girdle ahead of the landing, by the cap it will set then (:func:`_reach_cap`)
+#: raised by half this acceleration (m/s^2) times the square of the time left.
+#: A girdle held under it comes down onto the cap with its descent slowing at
+#: this rate, level at touchdown: on the landing frame it had dropped by the
+#: whole difference instead (30-110 mm; the pelvis's or withers' jolt 7-43 g in
+#: walk, trot and pace).
+LAND_ACCEL = 0.5 * GRAVITY
+#: Only the gaits that bound less than this are so guided, and only while a foot
+#: is down: the canter's and gallops' landings came out worse (the horse canter's
+#: jolt 1.9 -> 9.8 g, its rotary gallop's peak joint speed 3,662 -> 4,663 deg/s),
+#: and a flight held under the cap no longer fell ballistically (the horse
+#: trot's flights at -0.15 g).
+LANDING_BOUND_BELOW = 0.5
+#: ... and no lower than a planted fore foot at this fraction of its leg's reach
+#: allows: the fore girdle lowered further pitched the trunk nose-down over the
+#: planted hind legs, whose stifles passed their limit (the horse's rack: 72
+#: degrees against 70).
+CROUCH_REACH = 0.86
+#: A girdle meets the cap of its planted or landing feet rounded over this
+#: fraction of the hip height (:func:`smooth_min`): its rate has no kink.
+CAP_ROUNDING = 0.02
 
 
 @plan_inner
@@ -85,8 +107,10 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
     planted): each leg's top over the ground point of its key and offsets,
     lifted by the spine's flexion ``flex`` (rad) and by ``tilt`` (m, the
     trunk's pitch with the flexion); ``ft`` is the feet state, ``c``, ``sn``
-    the cosine and sine of the girdle's key heading."""
-    cap = math.inf
+    the cosine and sine of the girdle's key heading. Also the least rise that
+    keeps them within :data:`CROUCH_REACH` (minus infinity with none planted):
+    ``(cap, floor)``."""
+    cap, floor = math.inf, -math.inf
     for i in (left, right):
         if not ft.stance[n, i]:
             continue
@@ -95,9 +119,43 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
         dx = fx - (keys[n, g, 0] + c * ox + sn * oz)
         dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
         r = STANCE_REACH * reach.radius[n, i]
-        high = math.sqrt(max(r * r - dx * dx - dz * dz, 0.0))
         top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
-        cap = min(cap, high - top)
+        cap = min(cap, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
+        r = CROUCH_REACH * reach.radius[n, i]
+        floor = max(floor, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
+    return cap, floor
+
+
+@plan_inner
+def smooth_min(a, b, k):
+    """``min(a, b)`` rounded over ``|a - b| < k``: at most ``k / 4`` lower, its slope
+    continuous (``b`` may be infinite)."""
+    d = abs(a - b)
+    if d >= k:
+        return min(a, b)
+    e = (k - d) / k
+    return min(a, b) - 0.25 * k * e * e
+
+
+@plan_inner
+def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt, guided):
+    """How far (m) girdle ``g`` of row ``n`` may rise so that its swinging feet
+    ``left``, ``right`` land within :data:`STANCE_REACH` of their legs' reach: the
+    cap each touchdown point will set (its squared ground distance from the leg's
+    top then, ``scratch.td_reach2``), raised by ``LAND_ACCEL tau^2 / 2`` for the
+    time ``tau`` left to it (``scratch.td_tau``); infinite with none swinging or
+    unless ``guided``. ``dropped``, ``flex`` and ``tilt`` as :func:`_reach_cap`."""
+    cap = math.inf
+    if not guided:
+        return cap
+    for i in (left, right):
+        tau = scratch.td_tau[n, i]
+        if ft.stance[n, i] or tau < 0.0:
+            continue
+        r = STANCE_REACH * reach.radius[n, i]
+        high = math.sqrt(max(r * r - scratch.td_reach2[n, i], 0.0))
+        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
+        cap = min(cap, high - top + 0.5 * LAND_ACCEL * tau * tau)
     return cap
 
 
@@ -115,7 +173,8 @@ def body_rows(body, state, scratch, reach, sc, out):
         key points' source (``motion``); updates ``body`` in place.
     scratch : StepScratch
         This step's key points ``keys``, the cosines and sines of their
-        headings ``key_cs`` (the path stage's), ``theta_prev``;
+        headings ``key_cs`` (the path stage's), ``theta_prev``, the swinging
+        feet's touchdowns ahead ``td_tau`` and ``td_reach2`` (the feet stage's);
         ``need``, ``lx`` and ``lz`` are worked in.
     reach : ReachTables
         ``drops``, ``sweep_cols`` and ``foot_offset``.
@@ -214,14 +273,26 @@ def body_rows(body, state, scratch, reach, sc, out):
         # trot stance, its shoulders 20 mm higher than the cap allowed for)
         flexing = (1.0 - bound) * PITCH_FROM_FLEX * slow
         tilt_f = -body.body_length[n] * math.sin(min(flexing, 0.0))
-        rise_h = min(mid - half, _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet,
-                                            reach, pelvis * drops_now[n, 0], flex, 0.0))
-        rise_f = min(mid + half, _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet,
-                                            reach, pelvis * drops_now[n, 1], flex, tilt_f))
+        dropped_h, dropped_f = pelvis * drops_now[n, 0], pelvis * drops_now[n, 1]
+        # and no higher than its landing feet will let it be (LAND_ACCEL), the
+        # fore girdle no lower for it than its planted feet allow (CROUCH_REACH)
+        guided = held and bound < LANDING_BOUND_BELOW
+        cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
+                              flex, 0.0)
+        cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,
+                                    dropped_f, flex, tilt_f)
+        rise_h = min(mid - half, cap_h, _landing_cap(
+            n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0, guided))
+        rise_f = min(mid + half, cap_f, max(floor_f, _landing_cap(
+            n, 1, 0, 1, state.feet, scratch, reach, dropped_f, flex, tilt_f, guided)))
         if rise_h < mid - half or rise_f < mid + half:
             # the planted legs hold the trunk down: its centre is where they let it
             # be (it would jump up by the whole cap at lift-off); its rate goes on
             z[n, 0] = 0.5 * (rise_h + rise_f)
+        # each girdle meets its cap rounded (a kink in its rate is a jolt)
+        rounding = CAP_ROUNDING * h
+        rise_h = smooth_min(mid - half, rise_h, rounding)
+        rise_f = smooth_min(mid + half, rise_f, rounding)
         bs.height[n] = bs.base_height[n] + rise_h
         bs.rise[n, 0] = rise_h
         bs.rise[n, 1] = rise_f

@@ -212,6 +212,9 @@ class StepScratch(NamedTuple):
     need: np.ndarray         #: (N, 4) drop each planted foot needs (fraction of pelvis height)
     lx: np.ndarray           #: (N, 4) each foot across its girdle (m)
     lz: np.ndarray           #: (N, 4) ... and along it (m)
+    td_tau: np.ndarray       #: (N, 4) each swinging foot's time to its touchdown (s; -1 planted)
+    td_reach2: np.ndarray    #: (N, 4) ... and its touchdown point's squared ground distance
+    #: from its leg's top joint where that will be then (m^2)
 
 
 class PlanOutputs(NamedTuple):
@@ -242,7 +245,8 @@ def step_scratch(n: int) -> StepScratch:
                        np.empty((n, 2, 3)), np.empty((n, 2)), np.empty((n, 2, 2)), np.empty(n),
                        np.empty((n, 4), dtype=np.bool_), np.empty(n), np.empty((n, 4)),
                        np.empty(n, dtype=np.int64), np.empty(n), np.empty((n, 4)),
-                       np.empty((n, 4)), np.empty((n, 4)))
+                       np.empty((n, 4)), np.empty((n, 4)), np.empty((n, 4)),
+                       np.empty((n, 4)))
 
 
 def plan_outputs(n: int, packed_columns: int = 0) -> PlanOutputs:

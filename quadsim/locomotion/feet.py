@@ -99,6 +99,7 @@ def feet_rows(state, scratch, reach, sc, out):
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
             fold[n, i] = 0.0
+            scratch.td_tau[n, i] = -1.0
             if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with
                 for c in range(3):
                     feet[n, i, c] = planted[n, i, c]
@@ -136,6 +137,15 @@ def feet_rows(state, scratch, reach, sc, out):
                 stance[n, i] = True
                 continue
             swing_into((ax, ay, az), (tx, 0.0, tz), height, s, feet, n, i)
+            # how far the touchdown point will be from the leg's top joint then
+            # (the body stage lowers the trunk ahead of a landing out of its reach)
+            t_td = max((theta_td[n, i] - theta[n, i]) / omega, 0.0)
+            kx, kz, kh1 = arc_step(key_heading[n, g], v[n], yaw_rate[n], t_td)
+            c1, s1 = math.cos(kh1), math.sin(kh1)
+            ux = tx - (keys[n, g, 0] + kx + c1 * ox + s1 * reach.top_ahead[n, i])
+            uz = tz - (keys[n, g, 2] + kz - s1 * ox + c1 * reach.top_ahead[n, i])
+            scratch.td_tau[n, i] = t_td
+            scratch.td_reach2[n, i] = ux * ux + uz * uz
             fold[n, i] = math.sin(math.pi * s) ** 2
             # within reach of the leg's top (where the body left it last step)
             oz = reach.top_ahead[n, i]
