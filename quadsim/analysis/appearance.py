@@ -40,6 +40,7 @@ import math
 
 import numpy as np
 
+from quadsim.analysis.appearance_kernels import STRIDE_MEDIANS, stride_medians
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import foot_contacts
@@ -116,13 +117,16 @@ def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
 
 
-def _per_stride_range(x: np.ndarray, td: np.ndarray) -> np.ndarray:
-    """Range (max - min) of ``x`` over each stride ``td[k]..td[k + 1]`` (both ends in)."""
-    if len(td) < 2:
-        return np.array([])
-    hi = np.maximum(np.maximum.reduceat(x, td)[:-1], x[td[1:]])
-    lo = np.minimum(np.minimum.reduceat(x, td)[:-1], x[td[1:]])
-    return hi - lo
+def _touchdowns(mask: np.ndarray) -> np.ndarray:
+    """The first frames (int64, ascending) of the True runs of a 1-D bool array, but
+    frame 0 (a contact already under way)."""
+    m = np.asarray(mask, bool)
+    return np.flatnonzero(m[1:] & ~m[:-1]).astype(np.int64) + 1
+
+
+def _num(x: float) -> float | None:
+    """``x`` as a float, None for NaN."""
+    return None if math.isnan(x) else float(x)
 
 
 def _finite_sorted(x) -> np.ndarray:
@@ -139,16 +143,6 @@ def _quadratic_coefficient(y: np.ndarray, fps: float) -> float:
     t2 = ((np.arange(n) - 0.5 * (n - 1)) / fps) ** 2
     s2 = t2.sum()
     return float((n * (t2 @ y) - s2 * y.sum()) / (n * (t2 @ t2) - s2 * s2))
-
-
-def _median(x) -> float | None:
-    """``np.median`` of the finite values (None without any), from one sort."""
-    s = _finite_sorted(x)
-    n = s.size
-    if not n:
-        return None
-    k = n // 2
-    return float(s[k]) if n % 2 else float((s[k - 1] + s[k]) / 2.0)
 
 
 def _pct(x, q) -> float | None:
@@ -416,26 +410,17 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
 def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed: np.ndarray,
              hinges, main) -> dict:
     """The figures of one motion from its per-frame arrays (:func:`_series`)."""
-    feet, toes, root = s["feet"], s["toes"], s["root"]
-    body_speed, mid, pitch, flex, head = (s[k] for k in ("body_speed", "mid", "pitch", "flex",
-                                                          "head"))
-    fvel, fdown = s["fvel"], s["fdown"]
+    feet, root = s["feet"], s["root"]
+    mid, pitch, flex, head = (s[k] for k in ("mid", "pitch", "flex", "head"))
     h = a.hip_height
     T = len(feet)
 
-    # strides: left-hind touchdown to the next
-    td = np.array([s for s, _ in _runs(contacts[:, _LH]) if s > 0], dtype=np.intp)
-    bounds = list(zip(td[:-1], td[1:]))
-    lengths, cadence, froude, law = [], [], [], []
-    for s0, e in bounds:
-        dur = (e - s0) / fps
-        dist = float(np.linalg.norm(root[e, [X, Z]] - root[s0, [X, Z]]))
-        v = dist / dur
-        fr = v * v / (GRAVITY * h)
-        lengths.append(dist / h)
-        cadence.append(math.sqrt(h / GRAVITY) / dur)
-        froude.append(fr)
-        law.append(ALEXANDER[0] * fr ** ALEXANDER[1] if fr > 0 else np.nan)
+    # strides: left-hind touchdown to the next, their figures' medians compiled
+    td = _touchdowns(contacts[:, _LH])
+    medians = np.empty(len(STRIDE_MEDIANS))
+    stride_medians(td, root[:, X], root[:, Z], pitch, mid[:, Y], flex, head, fps, h, GRAVITY,
+                   ALEXANDER[0], ALEXANDER[1], medians)
+    strides = {k: _num(x) for k, x in zip(STRIDE_MEDIANS, medians)}
 
     # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
     below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
@@ -476,16 +461,9 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
                 main_near = near if main_near is None else max(main_near, near)
 
     return {
-        "strides": len(bounds),
+        "strides": max(len(td) - 1, 0),
         "hip_height": h,
-        "stride_over_h": _median(lengths),
-        "alexander_over_h": _median(law),
-        "froude": _median(froude),
-        "cadence": _median(cadence),
-        "trunk_pitch_range_deg": _median(np.degrees(_per_stride_range(pitch, td))),
-        "trunk_heave_over_h": _median(_per_stride_range(mid[:, Y], td) / h),
-        "spine_flexion_range_deg": _median(np.degrees(_per_stride_range(flex, td))),
-        "head_pitch_range_deg": _median(np.degrees(_per_stride_range(head, td))),
+        **strides,
         "toe_below_ground_mm": 1000.0 * float(below.max()) if below.size else None,
         "toe_slide_mm_p90": None if not slides.size else 1000.0 * _pct(slides, 90),
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),
