@@ -116,3 +116,59 @@ def test_the_compiled_stride_medians_are_numpys(strides):
     np.testing.assert_allclose(out, want, rtol=1e-14, atol=0)
     assert np.array_equal(np.isnan(out), np.isnan(want))
     assert np.array_equal(out[4:], want[4:], equal_nan=True)  # ranges and medians: exact
+
+
+def _series_numpy(P, Gf, Gh, ground, a, head_parent):
+    """The appearance's per-frame arrays with NumPy over the batch (the reference)."""
+    feet = P[..., list(a.feet), :].copy()
+    feet[..., 1] -= ground
+    toes = P[..., list(a.feet), :] + np.einsum("...lij,lj->...li", Gf, a.toe_offsets)
+    toes[..., 1] -= ground
+    vel = np.gradient(P[..., 0, :][..., [0, 2]], 1.0 / FPS, axis=-2)
+    d = (P[..., a.head, :] - P[..., head_parent, :] if a.head_from_parent
+         else np.einsum("...ij,j->...i", Gh, a.head_tip))
+    pw = P[..., a.withers, :] - P[..., a.pelvis, :]
+    ca = P[..., a.mid_spine, :] - P[..., a.pelvis, :]
+    cb = P[..., a.withers, :] - P[..., a.mid_spine, :]
+    cr = np.cross(ca, cb)
+    left = np.stack([pw[..., 2], np.zeros(pw.shape[:-1]), -pw[..., 0]], axis=-1)
+    flex = np.where((cr * left).sum(-1) > 0.0, 1.0, -1.0) * np.arctan2(
+        np.linalg.norm(cr, axis=-1), (ca * cb).sum(-1))
+    return {
+        "toes": toes, "body_speed": np.linalg.norm(vel, axis=-1),
+        "mid": 0.5 * (P[..., a.pelvis, :] + P[..., a.withers, :]),
+        "girdles_y": P[..., [a.pelvis, a.withers], 1],
+        "pitch": np.arctan2(pw[..., 1], np.hypot(pw[..., 0], pw[..., 2])),
+        "flex": flex, "head": np.arctan2(d[..., 1], np.hypot(d[..., 0], d[..., 2])),
+        "fvel": np.linalg.norm(np.diff(feet[..., [0, 2]], axis=-3), axis=-1) * FPS,
+        "fdown": -np.diff(feet[..., 1], axis=-2) * FPS,
+    }
+
+
+@pytest.mark.parametrize("from_parent", [False, True])
+def test_the_compiled_appearance_series_are_numpys(from_parent):
+    from dataclasses import replace
+
+    from quadsim.analysis.appearance import _series, spine_flexion, trunk_pitch
+    from quadsim.kinematics.rotations import matrices_from_quaternions
+    from quadsim.skeleton.anatomy import Anatomy
+
+    rng = np.random.default_rng(7)
+    N, T, J = 3, 50, 12
+    P = rng.normal(size=(N, T, J, 3))
+    Gf = matrices_from_quaternions(rng.normal(size=(N, T, 4, 4)))
+    Gh = matrices_from_quaternions(rng.normal(size=(N, T, 4)))
+    ground = rng.normal(0.0, 0.01, (N, T, 4))
+    fields = {f: None for f in Anatomy.__dataclass_fields__}
+    a = replace(Anatomy(**fields), feet=(3, 5, 8, 11), toe_offsets=rng.normal(size=(4, 3)),
+                pelvis=1, mid_spine=2, withers=4, head=7, head_tip=rng.normal(size=3),
+                head_from_parent=from_parent)
+    got = _series(P, Gf, Gh, ground, a, 6, FPS)
+    want = _series_numpy(P, Gf, Gh, ground, a, 6)
+    for k, w in want.items():
+        assert got[k].shape == w.shape, k
+        np.testing.assert_allclose(got[k], w, rtol=1e-12, atol=1e-12, err_msg=k)
+    assert np.array_equal(got["root"], P[:, :, 0])
+    assert np.array_equal(np.sign(got["flex"]), np.sign(want["flex"]))
+    assert np.array_equal(trunk_pitch(P, a), got["pitch"])  # the same code, alone
+    assert np.array_equal(spine_flexion(P[1], a), got["flex"][1])

@@ -40,7 +40,13 @@ import math
 
 import numpy as np
 
-from quadsim.analysis.appearance_kernels import STRIDE_MEDIANS, stride_medians
+from quadsim.analysis.appearance_kernels import (
+    STRIDE_MEDIANS,
+    flexion_rows,
+    pitch_rows,
+    series_rows,
+    stride_medians,
+)
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import foot_contacts
@@ -80,11 +86,19 @@ def toe_positions(motion, anatomy: Anatomy | None = None) -> np.ndarray:
     return P + np.einsum("tlij,lj->tli", G, a.toe_offsets)
 
 
+def _frames(positions: np.ndarray) -> np.ndarray:
+    """Joint world positions (..., J, 3) as (K, J, 3), float and C-ordered."""
+    P = np.ascontiguousarray(positions, dtype=float)
+    return P.reshape((-1,) + P.shape[-2:])
+
+
 def trunk_pitch(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
     """Nose-up pitch of the pelvis-to-withers line, shape (T,) (rad), from joint world
     positions (T, J, 3) (m); any leading axes are kept."""
-    d = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
-    return np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z]))
+    P = _frames(positions)
+    out = np.empty(len(P))
+    pitch_rows(P, anatomy.pelvis, anatomy.withers, out)
+    return out.reshape(np.shape(positions)[:-2])
 
 
 def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
@@ -94,16 +108,14 @@ def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
     Signed: positive while the back arches (the mid-spine above the
     pelvis-to-withers line, flexion), negative while it sags (extension),
     so that a stride's range spans both (an unsigned angle would fold an
-    extension onto a flexion of the same size).
+    extension onto a flexion of the same size): the sign of ``a x b`` along
+    the body's left (up x forward, forward the pelvis-to-withers line), for
+    the chords ``a`` and ``b``.
     """
-    a = positions[..., anatomy.mid_spine, :] - positions[..., anatomy.pelvis, :]
-    b = positions[..., anatomy.withers, :] - positions[..., anatomy.mid_spine, :]
-    # the body's left: up x forward, forward the pelvis-to-withers line
-    fwd = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
-    left = np.stack([fwd[..., Z], np.zeros(fwd.shape[:-1]), -fwd[..., X]], axis=-1)
-    # an arch turns the chords from rising to falling: a x b points to the left
-    sign = np.where(np.einsum("...i,...i->...", np.cross(a, b), left) > 0.0, 1.0, -1.0)
-    return sign * _angle(a, b)
+    P = _frames(positions)
+    out = np.empty(len(P))
+    flexion_rows(P, anatomy.pelvis, anatomy.mid_spine, anatomy.withers, out)
+    return out.reshape(np.shape(positions)[:-2])
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -244,36 +256,31 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
 
 
 def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -> dict:
-    """The per-frame arrays the figures are read from, over any leading axes (a batch).
+    """The per-frame arrays the figures are read from, of a batch (compiled,
+    :func:`~quadsim.analysis.appearance_kernels.series_rows`).
 
-    ``P`` (..., T, J, 3) joint world positions (m), ``Gfeet`` (..., T, 4, 3, 3)
-    the world rotations of ``a.feet``, ``Ghead`` (..., T, 3, 3) that of the
+    ``P`` (N, T, J, 3) joint world positions (m), ``Gfeet`` (N, T, 4, 3, 3)
+    the world rotations of ``a.feet``, ``Ghead`` (N, T, 3, 3) that of the
     head (None when its pitch comes from its parent's position,
-    ``head_parent``), ``ground`` (..., T, 4) the ground under the feet (m).
-    Element by element the operations of a lone motion: the same numbers.
+    ``head_parent``), ``ground`` (N, T, 4) the ground under the feet (m).
+    Each clip's arrays are found from its own alone.
     """
-    feet = P[..., list(a.feet), :].copy()
-    feet[..., Y] -= ground
-    toes = (P[..., list(a.feet), :] + np.einsum("...lij,lj->...li", Gfeet, a.toe_offsets)).copy()
-    toes[..., Y] -= ground
-    root = P[..., 0, :]
-    vel = np.gradient(root[..., [X, Z]], 1.0 / fps, axis=-2)
-    if a.head_from_parent:
-        d = P[..., a.head, :] - P[..., head_parent, :]
-    else:
-        d = np.einsum("...ij,j->...i", Ghead, a.head_tip)
-    out = {
-        "feet": feet, "toes": toes, "root": root,
-        "body_speed": np.linalg.norm(vel, axis=-1),
-        "mid": 0.5 * (P[..., a.pelvis, :] + P[..., a.withers, :]),
-        "girdles_y": P[..., [a.pelvis, a.withers], Y],  # (..., T, 2)
-        "pitch": trunk_pitch(P, a),
-        "flex": spine_flexion(P, a),
-        "head": np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z])),
-        "fvel": np.linalg.norm(np.diff(feet[..., [X, Z]], axis=-3), axis=-1) * fps,  # (T-1, 4)
-        "fdown": -np.diff(feet[..., Y], axis=-2) * fps,  # (T-1, 4), descent speed
-        "inner": None,
-    }
+    N, T = P.shape[:2]
+    P = np.ascontiguousarray(P, dtype=float)
+    from_parent = a.head_from_parent
+    Gh = np.zeros((1, 1, 3, 3)) if from_parent else np.ascontiguousarray(Ghead, dtype=float)
+    out = {"toes": np.empty((N, T, 4, 3)), "root": P[:, :, 0, :],
+           "body_speed": np.empty((N, T)), "mid": np.empty((N, T, 3)),
+           "girdles_y": np.empty((N, T, 2)), "pitch": np.empty((N, T)),
+           "flex": np.empty((N, T)), "head": np.empty((N, T)),
+           "fvel": np.empty((N, T - 1, 4)), "fdown": np.empty((N, T - 1, 4)), "inner": None}
+    series_rows(P, np.ascontiguousarray(Gfeet, dtype=float), Gh,
+                np.ascontiguousarray(ground, dtype=float), np.asarray(a.feet, dtype=np.int64),
+                np.ascontiguousarray(a.toe_offsets, dtype=float), a.pelvis, a.mid_spine,
+                a.withers, a.head, int(head_parent) if from_parent else -1,
+                np.ascontiguousarray(a.head_tip, dtype=float), float(fps),
+                *(out[k] for k in ("toes", "body_speed", "mid", "girdles_y", "pitch", "flex",
+                                   "head", "fvel", "fdown")))
     return out
 
 
@@ -355,10 +362,10 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     Gf = motion.world_rotations_of(a.feet)[k0:]
     Gh = motion.world_rotations_of(a.head)[k0:, 0]
     hinges = _hinges(motion, a)
-    s = _series(P, Gf, Gh, _ground(motion)[k0:], a,
-                int(motion.skeleton.parents[a.head]), fps)
-    s["inner"] = _inner_angles(P, hinges)
-    batch = {k: None if v is None else v[None] for k, v in s.items()}
+    batch = _series(P[None], Gf[None], Gh[None], _ground(motion)[k0:][None], a,
+                    int(motion.skeleton.parents[a.head]), fps)
+    batch["inner"] = _inner_angles(P[None], hinges)
+    s = {k: None if v is None else v[0] for k, v in batch.items()}
     (s["contacts"],) = _contact_arrays(batch, np.asarray(contacts, dtype=bool)[None])
     return _figures(a, fps, s, contacts, joint_speed, hinges, _elbows_knees(motion, hinges))
 
@@ -410,10 +417,9 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
 def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed: np.ndarray,
              hinges, main) -> dict:
     """The figures of one motion from its per-frame arrays (:func:`_series`)."""
-    feet, root = s["feet"], s["root"]
-    mid, pitch, flex, head = (s[k] for k in ("mid", "pitch", "flex", "head"))
+    root, mid, pitch, flex, head = (s[k] for k in ("root", "mid", "pitch", "flex", "head"))
     h = a.hip_height
-    T = len(feet)
+    T = len(mid)
 
     # strides: left-hind touchdown to the next, their figures' medians compiled
     td = _touchdowns(contacts[:, _LH])
