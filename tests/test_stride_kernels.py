@@ -172,3 +172,17 @@ def test_the_compiled_appearance_series_are_numpys(from_parent):
     assert np.array_equal(np.sign(got["flex"]), np.sign(want["flex"]))
     assert np.array_equal(trunk_pitch(P, a), got["pitch"])  # the same code, alone
     assert np.array_equal(spine_flexion(P[1], a), got["flex"][1])
+
+
+def test_a_batchs_positions_are_stacked_without_a_copy_and_others_copied():
+    from quadsim.analysis.appearance import _stacked
+
+    batch = np.arange(2 * 5 * 3 * 3, dtype=float).reshape(2, 5, 3, 3).copy()  # owns its data
+    rows = [batch[0].view(), batch[1].view()]
+    got = _stacked(rows)
+    assert np.shares_memory(got, batch) and not got.flags.writeable
+    assert np.array_equal(got, np.stack(rows))
+    for others in ([batch[1], batch[0]], [batch[0]], [batch[0], batch[1].copy()],
+                   [batch[0, :, :2], batch[1, :, :2]]):
+        got = _stacked(others)
+        assert not np.shares_memory(got, batch) and np.array_equal(got, np.stack(others))

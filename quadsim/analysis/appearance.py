@@ -370,6 +370,25 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     return _figures(a, fps, s, contacts, joint_speed, hinges, _elbows_knees(motion, hinges))
 
 
+def _stacked(arrays) -> np.ndarray:
+    """``np.stack(arrays)``, shape (N, ...): or, when the N arrays are already the
+    consecutive rows of one C-ordered array (a batch's motions' forward kinematics,
+    :func:`quadsim.dataset.clips.generate`), a read-only view of that array: the same
+    values, not copied."""
+    first = arrays[0]
+    b = first.base
+    if (isinstance(b, np.ndarray) and b.flags.c_contiguous and b.dtype == first.dtype
+            and b.shape == (len(arrays),) + first.shape):
+        at = b.__array_interface__["data"][0]
+        if all(x.base is b and x.shape == first.shape and x.strides == b.strides[1:]
+               and x.__array_interface__["data"][0] == at + i * b.strides[0]
+               for i, x in enumerate(arrays)):
+            out = b.view()
+            out.setflags(write=False)
+            return out
+    return np.stack(arrays)
+
+
 def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[dict]:
     """:func:`appearance_from_arrays` of each motion from its first frame, their
     per-frame arrays found together.
@@ -396,7 +415,7 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
     m0 = motions[0]
     fps = float(m0.fps)
     feet = list(a.feet)
-    P = np.stack([m.world_positions() for m in motions])
+    P = _stacked([m.world_positions() for m in motions])
     Gf = np.stack([m.world_rotations_of(feet) for m in motions])
     Gh = None if a.head_from_parent else np.stack([m.world_rotations_of(a.head)[:, 0]
                                                    for m in motions])
