@@ -49,7 +49,7 @@ from quadsim.analysis.appearance_kernels import (
 )
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
-from quadsim.skeleton.contacts import foot_contacts
+from quadsim.skeleton.contacts import _split_at, foot_contacts
 
 __all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "NEAR_STRAIGHT_DEG", "STRAIGHT_DEG", "appearance_from_arrays",
            "appearance_many", "appearance_report",
@@ -314,7 +314,7 @@ def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
     lo = fvel[k2, f2 - 1, i2] / body_speed[k2, f2 - 1]
 
     def split(x, which):
-        return np.split(x, np.searchsorted(which, np.arange(1, N)))
+        return _split_at(x, np.searchsorted(which, np.arange(1, N)))
 
     return list(zip(split(below, clip), split(slides, clip), split(td, k), split(tdd, k),
                     split(lo, k2)))
