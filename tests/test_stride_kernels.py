@@ -186,3 +186,20 @@ def test_a_batchs_positions_are_stacked_without_a_copy_and_others_copied():
                    [batch[0, :, :2], batch[1, :, :2]]):
         got = _stacked(others)
         assert not np.shares_memory(got, batch) and np.array_equal(got, np.stack(others))
+
+
+def test_every_flight_phase_is_fitted_and_only_those():
+    from quadsim.analysis.appearance_kernels import flight_accels
+
+    T = 60
+    flying = np.zeros(T, dtype=bool)
+    flying[:8] = True  # from the first frame: not measured
+    flying[10:13] = True  # three frames: too short
+    flying[20:30] = True
+    flying[40:46] = True
+    flying[55:] = True  # to the last frame: not measured
+    t = np.arange(T) / FPS
+    y = 0.5 - 0.5 * GRAVITY * (t - 0.4) ** 2  # a ballistic fall throughout: -1 g
+    out = np.empty(T)
+    n = flight_accels(flying, y, FPS, 4, GRAVITY, out)
+    np.testing.assert_allclose(out[:n], [-1.0, -1.0], rtol=1e-9)

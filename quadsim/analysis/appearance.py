@@ -43,9 +43,13 @@ import numpy as np
 from quadsim.analysis.appearance_kernels import (
     STRIDE_MEDIANS,
     flexion_rows,
+    flight_accels,
     pitch_rows,
     series_rows,
     stride_medians,
+)
+from quadsim.analysis.appearance_kernels import (  # the flight fit, by its old name
+    quadratic_coefficient as _quadratic_coefficient,  # noqa: F401
 )
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
@@ -123,12 +127,6 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.arctan2(cross, np.einsum("...i,...i->...", a, b))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.diff(m.astype(np.int8))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
-
-
 def _touchdowns(mask: np.ndarray) -> np.ndarray:
     """The first frames (int64, ascending) of the True runs of a 1-D bool array, but
     frame 0 (a contact already under way)."""
@@ -144,17 +142,6 @@ def _num(x: float) -> float | None:
 def _finite_sorted(x) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     return np.sort(x[np.isfinite(x)])
-
-
-def _quadratic_coefficient(y: np.ndarray, fps: float) -> float:
-    """``c2`` of the least-squares fit ``y ~ c0 + c1 t + c2 t^2`` of samples ``y`` (n >= 3)
-    taken ``1 / fps`` s apart: with ``t`` centred on the middle sample, the odd sums
-    of ``t`` vanish and the normal equations give ``c2 = (n S(t^2 y) - S(t^2) S(y)) /
-    (n S(t^4) - S(t^2)^2)`` (``np.polyfit(t, y, 2)[0]``, without its solver)."""
-    n = len(y)
-    t2 = ((np.arange(n) - 0.5 * (n - 1)) / fps) ** 2
-    s2 = t2.sum()
-    return float((n * (t2 @ y) - s2 * y.sum()) / (n * (t2 @ t2) - s2 * s2))
 
 
 def _pct(x, q) -> float | None:
@@ -451,10 +438,9 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
     below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
 
     # flight: no foot down
-    accel = []
-    for s0, e in _runs(~contacts.any(axis=1)):
-        if e - s0 >= MIN_FLIGHT_FRAMES and s0 > 0 and e < T:
-            accel.append(2.0 * _quadratic_coefficient(mid[s0:e, Y], fps) / GRAVITY)
+    found = np.empty(T)
+    accel = found[:flight_accels(~contacts.any(axis=1), mid[:, Y], fps, MIN_FLIGHT_FRAMES,
+                                 GRAVITY, found)]
 
     # the trunk's jolts: the girdles' largest vertical acceleration (second differences)
     gy = s["girdles_y"]

@@ -7,7 +7,8 @@ feet's speeds) in one pass over each clip's joint positions, where NumPy
 walks the batch's arrays a dozen times; :func:`pitch_rows` and
 :func:`flexion_rows` are the trunk's pitch and the spine's flexion alone
 (:func:`quadsim.analysis.appearance.trunk_pitch`,
-:func:`~quadsim.analysis.appearance.spine_flexion`), the same code.
+:func:`~quadsim.analysis.appearance.spine_flexion`), the same code;
+:func:`flight_accels` fits every flight phase's parabola.
 
 :func:`quadsim.analysis.appearance.appearance_report` reads eight of its
 figures from the strides (left-hind touchdown to the next): the stride
@@ -29,7 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["STRIDE_MEDIANS", "flexion_rows", "pitch_rows", "series_rows", "stride_medians"]
+__all__ = ["STRIDE_MEDIANS", "flexion_rows", "flight_accels", "pitch_rows", "quadratic_coefficient",
+           "series_rows", "stride_medians"]
 
 #: The figures :func:`stride_medians` writes, in order.
 STRIDE_MEDIANS = ("stride_over_h", "alexander_over_h", "froude", "cadence",
@@ -230,3 +232,46 @@ def series_rows(P, Gf, Gh, ground, feet, toe_off, pelvis, mid_spine, withers, he
                 y0 = P[n, t, f, 1] - ground[n, t, l]
                 y1 = P[n, t + 1, f, 1] - ground[n, t + 1, l]
                 fdown[n, t, l] = -(y1 - y0) * fps
+
+
+@njit(cache=True)
+def quadratic_coefficient(y, fps):
+    """``c2`` of the least-squares fit ``y ~ c0 + c1 t + c2 t^2`` of samples ``y`` (n >= 3)
+    taken ``1 / fps`` s apart: with ``t`` centred on the middle sample, the odd sums
+    of ``t`` vanish and the normal equations give ``c2 = (n S(t^2 y) - S(t^2) S(y)) /
+    (n S(t^4) - S(t^2)^2)`` (``np.polyfit(t, y, 2)[0]``, without its solver; the
+    sums taken in order)."""
+    n = y.shape[0]
+    s2 = s4 = s2y = sy = 0.0
+    for i in range(n):
+        t2 = ((i - 0.5 * (n - 1)) / fps) ** 2
+        s2 += t2
+        s4 += t2 * t2
+        s2y += t2 * y[i]
+        sy += y[i]
+    return (n * s2y - s2 * sy) / (n * s4 - s2 * s2)
+
+
+@njit(cache=True)
+def flight_accels(flying, y, fps, min_frames, g, out):
+    """The vertical acceleration (in ``g``) of every flight phase, from a parabola fitted
+    to the height ``y`` (T,) (m) over its frames.
+
+    A flight phase is a run of ``flying`` (T,) bool frames (no foot down) of at
+    least ``min_frames`` frames that neither starts on the first frame nor ends
+    on the last. ``out`` (T,) is written with the accelerations in time order
+    (``2 c2 / g``, :func:`quadratic_coefficient`); returns how many.
+    """
+    T = flying.shape[0]
+    k, t = 0, 0
+    while t < T:
+        if not flying[t]:
+            t += 1
+            continue
+        s0 = t
+        while t < T and flying[t]:
+            t += 1
+        if t - s0 >= min_frames and s0 > 0 and t < T:
+            out[k] = 2.0 * quadratic_coefficient(y[s0:t], fps) / g
+            k += 1
+    return k
