@@ -263,11 +263,12 @@ def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -
            "fvel": np.empty((N, T - 1, 4)), "fdown": np.empty((N, T - 1, 4)), "inner": None}
     series_rows(P, np.ascontiguousarray(Gfeet, dtype=float), Gh,
                 np.ascontiguousarray(ground, dtype=float), np.asarray(a.feet, dtype=np.int64),
-                np.ascontiguousarray(a.toe_offsets, dtype=float), a.pelvis, a.mid_spine,
-                a.withers, a.head, int(head_parent) if from_parent else -1,
+                np.ascontiguousarray(a.toe_offsets, dtype=float),
+                np.array([a.pelvis, a.mid_spine, a.withers, a.head,
+                          int(head_parent) if from_parent else -1], dtype=np.int64),
                 np.ascontiguousarray(a.head_tip, dtype=float), float(fps),
-                *(out[k] for k in ("toes", "body_speed", "mid", "girdles_y", "pitch", "flex",
-                                   "head", "fvel", "fdown")))
+                tuple(out[k] for k in ("toes", "body_speed", "mid", "girdles_y", "pitch",
+                                       "flex", "head", "fvel", "fdown")))
     return out
 
 

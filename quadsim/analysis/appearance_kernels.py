@@ -155,9 +155,7 @@ def flexion_rows(P, p, m, w, out):
 
 
 @njit(cache=True)
-def series_rows(P, Gf, Gh, ground, feet, toe_off, pelvis, mid_spine, withers, head,
-                head_parent, head_tip, fps, toes, body_speed, mid, girdles_y, pitch, flex,
-                head_pitch, fvel, fdown):
+def series_rows(P, Gf, Gh, ground, feet, toe_off, joints, head_tip, fps, out):
     """The per-frame arrays the appearance's figures are read from, of N clips.
 
     Parameters
@@ -172,12 +170,13 @@ def series_rows(P, Gf, Gh, ground, feet, toe_off, pelvis, mid_spine, withers, he
         The ground's height under each foot (m).
     toe_off : ndarray, shape (4, 3)
         The toe tips in their feet's frames (m).
-    pelvis, mid_spine, withers, head : int
-        Joints.
-    head_parent : int
-        The joint whose chord to the head gives the head's pitch, or -1 for
-        the head's own direction ``head_tip`` (3,) in its frame.
+    joints : ndarray of int64, shape (5,)
+        The pelvis, mid-spine, withers and head joints, and the joint whose
+        chord to the head gives the head's pitch, or -1 for the head's own
+        direction ``head_tip`` (3,) in its frame.
     fps : float
+    out : tuple of ndarrays
+        Written, in this order:
     toes : ndarray, shape (N, T, 4, 3)
         Written: the toe tips' positions, heights over the ground (m).
     body_speed : ndarray, shape (N, T)
@@ -193,6 +192,9 @@ def series_rows(P, Gf, Gh, ground, feet, toe_off, pelvis, mid_spine, withers, he
         Written: each foot's horizontal speed over each frame step (m/s), and
         its speed down (m/s, over the ground under it).
     """
+    toes, body_speed, mid, girdles_y, pitch, flex, head_pitch, fvel, fdown = out
+    pelvis, mid_spine, withers, head, head_parent = (joints[0], joints[1], joints[2],
+                                                     joints[3], joints[4])
     N, T = P.shape[0], P.shape[1]
     for n in range(N):
         for t in range(T):
