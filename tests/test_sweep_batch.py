@@ -197,3 +197,15 @@ def test_group_medians_pick_what_one_sort_by_group_and_value_picks():
     assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
     v[5] = np.nan  # NaN: the one sort still decides
     assert np.array_equal(_group_medians(v, groups, sizes), by_lexsort(v), equal_nan=True)
+
+
+def test_a_batchs_contacts_are_cut_as_numpy_cuts_them():
+    from quadsim.skeleton.contacts import _split_at
+
+    x = np.arange(40.0).reshape(20, 2)
+    for cuts in ([], [0], [3, 3, 7], [5, 20], np.array([1, 19])):
+        got, want = _split_at(x, cuts), np.split(x, cuts)
+        assert len(got) == len(want)
+        for a, b in zip(got, want):
+            assert np.array_equal(a, b) and a.shape == b.shape
+            assert a.base is x or a.base is x.base  # views, not copies

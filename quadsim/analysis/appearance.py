@@ -40,9 +40,20 @@ import math
 
 import numpy as np
 
+from quadsim.analysis.appearance_kernels import (
+    STRIDE_MEDIANS,
+    flexion_rows,
+    flight_accels,
+    pitch_rows,
+    series_rows,
+    stride_medians,
+)
+from quadsim.analysis.appearance_kernels import (  # the flight fit, by its old name
+    quadratic_coefficient as _quadratic_coefficient,  # noqa: F401
+)
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
-from quadsim.skeleton.contacts import foot_contacts
+from quadsim.skeleton.contacts import _split_at, foot_contacts
 
 __all__ = ["ALEXANDER", "MIN_FLIGHT_FRAMES", "NEAR_STRAIGHT_DEG", "STRAIGHT_DEG", "appearance_from_arrays",
            "appearance_many", "appearance_report",
@@ -79,11 +90,19 @@ def toe_positions(motion, anatomy: Anatomy | None = None) -> np.ndarray:
     return P + np.einsum("tlij,lj->tli", G, a.toe_offsets)
 
 
+def _frames(positions: np.ndarray) -> np.ndarray:
+    """Joint world positions (..., J, 3) as (K, J, 3), float and C-ordered."""
+    P = np.ascontiguousarray(positions, dtype=float)
+    return P.reshape((-1,) + P.shape[-2:])
+
+
 def trunk_pitch(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
     """Nose-up pitch of the pelvis-to-withers line, shape (T,) (rad), from joint world
     positions (T, J, 3) (m); any leading axes are kept."""
-    d = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
-    return np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z]))
+    P = _frames(positions)
+    out = np.empty(len(P))
+    pitch_rows(P, anatomy.pelvis, anatomy.withers, out)
+    return out.reshape(np.shape(positions)[:-2])
 
 
 def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
@@ -93,16 +112,14 @@ def spine_flexion(positions: np.ndarray, anatomy: Anatomy) -> np.ndarray:
     Signed: positive while the back arches (the mid-spine above the
     pelvis-to-withers line, flexion), negative while it sags (extension),
     so that a stride's range spans both (an unsigned angle would fold an
-    extension onto a flexion of the same size).
+    extension onto a flexion of the same size): the sign of ``a x b`` along
+    the body's left (up x forward, forward the pelvis-to-withers line), for
+    the chords ``a`` and ``b``.
     """
-    a = positions[..., anatomy.mid_spine, :] - positions[..., anatomy.pelvis, :]
-    b = positions[..., anatomy.withers, :] - positions[..., anatomy.mid_spine, :]
-    # the body's left: up x forward, forward the pelvis-to-withers line
-    fwd = positions[..., anatomy.withers, :] - positions[..., anatomy.pelvis, :]
-    left = np.stack([fwd[..., Z], np.zeros(fwd.shape[:-1]), -fwd[..., X]], axis=-1)
-    # an arch turns the chords from rising to falling: a x b points to the left
-    sign = np.where(np.einsum("...i,...i->...", np.cross(a, b), left) > 0.0, 1.0, -1.0)
-    return sign * _angle(a, b)
+    P = _frames(positions)
+    out = np.empty(len(P))
+    flexion_rows(P, anatomy.pelvis, anatomy.mid_spine, anatomy.withers, out)
+    return out.reshape(np.shape(positions)[:-2])
 
 
 def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -110,45 +127,21 @@ def _angle(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.arctan2(cross, np.einsum("...i,...i->...", a, b))
 
 
-def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
-    m = np.concatenate([[False], np.asarray(mask, bool), [False]])
-    d = np.diff(m.astype(np.int8))
-    return list(zip(np.flatnonzero(d == 1), np.flatnonzero(d == -1)))
+def _touchdowns(mask: np.ndarray) -> np.ndarray:
+    """The first frames (int64, ascending) of the True runs of a 1-D bool array, but
+    frame 0 (a contact already under way)."""
+    m = np.asarray(mask, bool)
+    return np.flatnonzero(m[1:] & ~m[:-1]).astype(np.int64) + 1
 
 
-def _per_stride_range(x: np.ndarray, td: np.ndarray) -> np.ndarray:
-    """Range (max - min) of ``x`` over each stride ``td[k]..td[k + 1]`` (both ends in)."""
-    if len(td) < 2:
-        return np.array([])
-    hi = np.maximum(np.maximum.reduceat(x, td)[:-1], x[td[1:]])
-    lo = np.minimum(np.minimum.reduceat(x, td)[:-1], x[td[1:]])
-    return hi - lo
+def _num(x: float) -> float | None:
+    """``x`` as a float, None for NaN."""
+    return None if math.isnan(x) else float(x)
 
 
 def _finite_sorted(x) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     return np.sort(x[np.isfinite(x)])
-
-
-def _quadratic_coefficient(y: np.ndarray, fps: float) -> float:
-    """``c2`` of the least-squares fit ``y ~ c0 + c1 t + c2 t^2`` of samples ``y`` (n >= 3)
-    taken ``1 / fps`` s apart: with ``t`` centred on the middle sample, the odd sums
-    of ``t`` vanish and the normal equations give ``c2 = (n S(t^2 y) - S(t^2) S(y)) /
-    (n S(t^4) - S(t^2)^2)`` (``np.polyfit(t, y, 2)[0]``, without its solver)."""
-    n = len(y)
-    t2 = ((np.arange(n) - 0.5 * (n - 1)) / fps) ** 2
-    s2 = t2.sum()
-    return float((n * (t2 @ y) - s2 * y.sum()) / (n * (t2 @ t2) - s2 * s2))
-
-
-def _median(x) -> float | None:
-    """``np.median`` of the finite values (None without any), from one sort."""
-    s = _finite_sorted(x)
-    n = s.size
-    if not n:
-        return None
-    k = n // 2
-    return float(s[k]) if n % 2 else float((s[k - 1] + s[k]) / 2.0)
 
 
 def _pct(x, q) -> float | None:
@@ -250,36 +243,32 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
 
 
 def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -> dict:
-    """The per-frame arrays the figures are read from, over any leading axes (a batch).
+    """The per-frame arrays the figures are read from, of a batch (compiled,
+    :func:`~quadsim.analysis.appearance_kernels.series_rows`).
 
-    ``P`` (..., T, J, 3) joint world positions (m), ``Gfeet`` (..., T, 4, 3, 3)
-    the world rotations of ``a.feet``, ``Ghead`` (..., T, 3, 3) that of the
+    ``P`` (N, T, J, 3) joint world positions (m), ``Gfeet`` (N, T, 4, 3, 3)
+    the world rotations of ``a.feet``, ``Ghead`` (N, T, 3, 3) that of the
     head (None when its pitch comes from its parent's position,
-    ``head_parent``), ``ground`` (..., T, 4) the ground under the feet (m).
-    Element by element the operations of a lone motion: the same numbers.
+    ``head_parent``), ``ground`` (N, T, 4) the ground under the feet (m).
+    Each clip's arrays are found from its own alone.
     """
-    feet = P[..., list(a.feet), :].copy()
-    feet[..., Y] -= ground
-    toes = (P[..., list(a.feet), :] + np.einsum("...lij,lj->...li", Gfeet, a.toe_offsets)).copy()
-    toes[..., Y] -= ground
-    root = P[..., 0, :]
-    vel = np.gradient(root[..., [X, Z]], 1.0 / fps, axis=-2)
-    if a.head_from_parent:
-        d = P[..., a.head, :] - P[..., head_parent, :]
-    else:
-        d = np.einsum("...ij,j->...i", Ghead, a.head_tip)
-    out = {
-        "feet": feet, "toes": toes, "root": root,
-        "body_speed": np.linalg.norm(vel, axis=-1),
-        "mid": 0.5 * (P[..., a.pelvis, :] + P[..., a.withers, :]),
-        "girdles_y": P[..., [a.pelvis, a.withers], Y],  # (..., T, 2)
-        "pitch": trunk_pitch(P, a),
-        "flex": spine_flexion(P, a),
-        "head": np.arctan2(d[..., Y], np.hypot(d[..., X], d[..., Z])),
-        "fvel": np.linalg.norm(np.diff(feet[..., [X, Z]], axis=-3), axis=-1) * fps,  # (T-1, 4)
-        "fdown": -np.diff(feet[..., Y], axis=-2) * fps,  # (T-1, 4), descent speed
-        "inner": None,
-    }
+    N, T = P.shape[:2]
+    P = np.ascontiguousarray(P, dtype=float)
+    from_parent = a.head_from_parent
+    Gh = np.zeros((1, 1, 3, 3)) if from_parent else np.ascontiguousarray(Ghead, dtype=float)
+    out = {"toes": np.empty((N, T, 4, 3)), "root": P[:, :, 0, :],
+           "body_speed": np.empty((N, T)), "mid": np.empty((N, T, 3)),
+           "girdles_y": np.empty((N, T, 2)), "pitch": np.empty((N, T)),
+           "flex": np.empty((N, T)), "head": np.empty((N, T)),
+           "fvel": np.empty((N, T - 1, 4)), "fdown": np.empty((N, T - 1, 4)), "inner": None}
+    series_rows(P, np.ascontiguousarray(Gfeet, dtype=float), Gh,
+                np.ascontiguousarray(ground, dtype=float), np.asarray(a.feet, dtype=np.int64),
+                np.ascontiguousarray(a.toe_offsets, dtype=float),
+                np.array([a.pelvis, a.mid_spine, a.withers, a.head,
+                          int(head_parent) if from_parent else -1], dtype=np.int64),
+                np.ascontiguousarray(a.head_tip, dtype=float), float(fps),
+                tuple(out[k] for k in ("toes", "body_speed", "mid", "girdles_y", "pitch",
+                                       "flex", "head", "fvel", "fdown")))
     return out
 
 
@@ -313,7 +302,7 @@ def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
     lo = fvel[k2, f2 - 1, i2] / body_speed[k2, f2 - 1]
 
     def split(x, which):
-        return np.split(x, np.searchsorted(which, np.arange(1, N)))
+        return _split_at(x, np.searchsorted(which, np.arange(1, N)))
 
     return list(zip(split(below, clip), split(slides, clip), split(td, k), split(tdd, k),
                     split(lo, k2)))
@@ -361,12 +350,31 @@ def appearance_from_arrays(motion, anatomy: Anatomy, k0: int, contacts: np.ndarr
     Gf = motion.world_rotations_of(a.feet)[k0:]
     Gh = motion.world_rotations_of(a.head)[k0:, 0]
     hinges = _hinges(motion, a)
-    s = _series(P, Gf, Gh, _ground(motion)[k0:], a,
-                int(motion.skeleton.parents[a.head]), fps)
-    s["inner"] = _inner_angles(P, hinges)
-    batch = {k: None if v is None else v[None] for k, v in s.items()}
+    batch = _series(P[None], Gf[None], Gh[None], _ground(motion)[k0:][None], a,
+                    int(motion.skeleton.parents[a.head]), fps)
+    batch["inner"] = _inner_angles(P[None], hinges)
+    s = {k: None if v is None else v[0] for k, v in batch.items()}
     (s["contacts"],) = _contact_arrays(batch, np.asarray(contacts, dtype=bool)[None])
     return _figures(a, fps, s, contacts, joint_speed, hinges, _elbows_knees(motion, hinges))
+
+
+def _stacked(arrays) -> np.ndarray:
+    """``np.stack(arrays)``, shape (N, ...): or, when the N arrays are already the
+    consecutive rows of one C-ordered array (a batch's motions' forward kinematics,
+    :func:`quadsim.dataset.clips.generate`), a read-only view of that array: the same
+    values, not copied."""
+    first = arrays[0]
+    b = first.base
+    if (isinstance(b, np.ndarray) and b.flags.c_contiguous and b.dtype == first.dtype
+            and b.shape == (len(arrays),) + first.shape):
+        at = b.__array_interface__["data"][0]
+        if all(x.base is b and x.shape == first.shape and x.strides == b.strides[1:]
+               and x.__array_interface__["data"][0] == at + i * b.strides[0]
+               for i, x in enumerate(arrays)):
+            out = b.view()
+            out.setflags(write=False)
+            return out
+    return np.stack(arrays)
 
 
 def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[dict]:
@@ -395,7 +403,7 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
     m0 = motions[0]
     fps = float(m0.fps)
     feet = list(a.feet)
-    P = np.stack([m.world_positions() for m in motions])
+    P = _stacked([m.world_positions() for m in motions])
     Gf = np.stack([m.world_rotations_of(feet) for m in motions])
     Gh = None if a.head_from_parent else np.stack([m.world_rotations_of(a.head)[:, 0]
                                                    for m in motions])
@@ -416,35 +424,24 @@ def appearance_many(motions, anatomy: Anatomy, contacts, joint_speeds) -> list[d
 def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed: np.ndarray,
              hinges, main) -> dict:
     """The figures of one motion from its per-frame arrays (:func:`_series`)."""
-    feet, toes, root = s["feet"], s["toes"], s["root"]
-    body_speed, mid, pitch, flex, head = (s[k] for k in ("body_speed", "mid", "pitch", "flex",
-                                                          "head"))
-    fvel, fdown = s["fvel"], s["fdown"]
+    root, mid, pitch, flex, head = (s[k] for k in ("root", "mid", "pitch", "flex", "head"))
     h = a.hip_height
-    T = len(feet)
+    T = len(mid)
 
-    # strides: left-hind touchdown to the next
-    td = np.array([s for s, _ in _runs(contacts[:, _LH]) if s > 0], dtype=np.intp)
-    bounds = list(zip(td[:-1], td[1:]))
-    lengths, cadence, froude, law = [], [], [], []
-    for s0, e in bounds:
-        dur = (e - s0) / fps
-        dist = float(np.linalg.norm(root[e, [X, Z]] - root[s0, [X, Z]]))
-        v = dist / dur
-        fr = v * v / (GRAVITY * h)
-        lengths.append(dist / h)
-        cadence.append(math.sqrt(h / GRAVITY) / dur)
-        froude.append(fr)
-        law.append(ALEXANDER[0] * fr ** ALEXANDER[1] if fr > 0 else np.nan)
+    # strides: left-hind touchdown to the next, their figures' medians compiled
+    td = _touchdowns(contacts[:, _LH])
+    medians = np.empty(len(STRIDE_MEDIANS))
+    stride_medians(td, root[:, X], root[:, Z], pitch, mid[:, Y], flex, head, fps, h, GRAVITY,
+                   ALEXANDER[0], ALEXANDER[1], medians)
+    strides = {k: _num(x) for k, x in zip(STRIDE_MEDIANS, medians)}
 
     # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
     below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
 
     # flight: no foot down
-    accel = []
-    for s0, e in _runs(~contacts.any(axis=1)):
-        if e - s0 >= MIN_FLIGHT_FRAMES and s0 > 0 and e < T:
-            accel.append(2.0 * _quadratic_coefficient(mid[s0:e, Y], fps) / GRAVITY)
+    found = np.empty(T)
+    accel = found[:flight_accels(~contacts.any(axis=1), mid[:, Y], fps, MIN_FLIGHT_FRAMES,
+                                 GRAVITY, found)]
 
     # the trunk's jolts: the girdles' largest vertical acceleration (second differences)
     gy = s["girdles_y"]
@@ -476,16 +473,9 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
                 main_near = near if main_near is None else max(main_near, near)
 
     return {
-        "strides": len(bounds),
+        "strides": max(len(td) - 1, 0),
         "hip_height": h,
-        "stride_over_h": _median(lengths),
-        "alexander_over_h": _median(law),
-        "froude": _median(froude),
-        "cadence": _median(cadence),
-        "trunk_pitch_range_deg": _median(np.degrees(_per_stride_range(pitch, td))),
-        "trunk_heave_over_h": _median(_per_stride_range(mid[:, Y], td) / h),
-        "spine_flexion_range_deg": _median(np.degrees(_per_stride_range(flex, td))),
-        "head_pitch_range_deg": _median(np.degrees(_per_stride_range(head, td))),
+        **strides,
         "toe_below_ground_mm": 1000.0 * float(below.max()) if below.size else None,
         "toe_slide_mm_p90": None if not slides.size else 1000.0 * _pct(slides, 90),
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),

@@ -239,19 +239,20 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
         slides, max_slide = foot_slide(f, contacts)
     else:  # as foot_slide finds the largest
         max_slide = max((float(x.max()) for x in slides if len(x)), default=0.0)
-    depth = penetration_depth(f)
+    depth = penetration_depth(f).max(axis=0)  # (4,), each foot's deepest
+    strides = np.bincount(table["leg"], minlength=4)
+    stance = np.bincount(table["leg"], table["stance"], minlength=4)  # summed in order
     legs = {}
     for i, name in enumerate(LEGS):
-        rows = table["leg"] == i
-        st = table["stance"][rows]
+        slid = slides[i]
         legs[name] = {
             "duty_factor": _num(duty[i]),
             "phase": _num(phase[i]),
-            "strides": int(rows.sum()),
-            "contact_time": _num(st.mean()) if len(st) else None,
-            "max_slide_mm": float(slides[i].max() * 1e3) if len(slides[i]) else None,
-            "mean_slide_mm": float(slides[i].mean() * 1e3) if len(slides[i]) else None,
-            "max_penetration_mm": float(depth[:, i].max() * 1e3),
+            "strides": int(strides[i]),
+            "contact_time": _num(stance[i] / strides[i]) if strides[i] else None,
+            "max_slide_mm": float(slid.max() * 1e3) if len(slid) else None,
+            "mean_slide_mm": float(slid.mean() * 1e3) if len(slid) else None,
+            "max_penetration_mm": float(depth[i] * 1e3),
         }
     report = {
         "fps": fps, "frames": T, "duration": (T - 1) / fps, "start": start,

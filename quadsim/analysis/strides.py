@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from quadsim.analysis.stride_kernels import leg_starts, phase_means, stride_rows
+from quadsim.frames import X, Z
 from quadsim.skeleton.contacts import (
     _LH,
     _check_contacts,
@@ -55,21 +57,18 @@ def stride_table(contacts, fps, feet=None, *, tolerance=None) -> dict[str, np.nd
 
 
 def _table(evs: list[dict], f: np.ndarray | None) -> dict[str, np.ndarray]:
-    rows = []
-    for i, ev in enumerate(evs):
-        on, off = ev["on"], ev["off"]
-        k = np.flatnonzero(np.isfinite(on[:-1]))
-        mid = (ev["s"] + ev["e"]) // 2
-        if f is None:
-            length = np.full(len(k), np.nan)
-        else:
-            p = _horizontal(f[mid, i])
-            length = np.linalg.norm(p[k + 1] - p[k], axis=-1)
-        rows.append((np.full(len(k), i), on[k], off[k], on[k + 1], length))
-    leg, td, lo, nxt, length = (np.concatenate(col) for col in zip(*rows))
+    first = leg_starts([len(ev["on"]) for ev in evs])
+    on, off, s, e = (np.concatenate([ev[k] for ev in evs]) for k in ("on", "off", "s", "e"))
+    with_length = f is not None
+    fx, fz = (f[..., X], f[..., Z]) if with_length else (np.zeros((1, 4)),) * 2
+    n = len(on)
+    leg, td, lo, nxt, length = np.empty(n, dtype=np.int64), *(np.empty(n) for _ in range(4))
+    r = stride_rows(on, off, s.astype(np.int64), e.astype(np.int64), first, fx, fz,
+                    with_length, leg, td, lo, nxt, length)
+    leg, td, lo, nxt, length = leg[:r], td[:r], lo[:r], nxt[:r], length[:r]
     period = nxt - td
     stance = lo - td
-    return {"leg": leg.astype(np.int64), "touchdown": td, "liftoff": lo,
+    return {"leg": leg, "touchdown": td, "liftoff": lo,
             "next_touchdown": nxt, "period": period, "stance": stance,
             "duty": stance / period, "length": length}
 
@@ -112,21 +111,9 @@ def phases(contacts, fps, feet=None, *, tolerance=None) -> np.ndarray:
 
 
 def _phases(td: list[np.ndarray]) -> np.ndarray:
-    ref = td[_LH]
-    out = np.full(4, np.nan)
-    if len(ref) < 2:
-        return out
-    for i, t in enumerate(td):
-        k = np.searchsorted(ref, t, side="right") - 1
-        ok = (k >= 0) & (k < len(ref) - 1)
-        if not ok.any():
-            continue
-        k, t = k[ok], t[ok]
-        ph = (t - ref[k]) / (ref[k + 1] - ref[k])
-        ang = np.angle(np.mean(np.exp(2j * np.pi * ph)))
-        out[i] = (ang / (2 * np.pi)) % 1.0
-    out[_LH] = 0.0
-    return np.where(out > 1.0 - 1e-9, 0.0, out)
+    out = np.empty(4)
+    phase_means(np.concatenate(td).astype(float), leg_starts([len(t) for t in td]), _LH, out)
+    return out
 
 
 def strides_to_pattern(contacts, fps, want, *, feet=None, start: float = 0.0,

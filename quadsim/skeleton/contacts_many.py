@@ -29,6 +29,7 @@ from quadsim.skeleton.contacts import (
     _ranges_mask,
     _refine,
     _runs,
+    _split_at,
     _tolerance,
     default_contact_thresholds,
 )
@@ -126,7 +127,7 @@ def slides(points, contacts, found=None) -> np.ndarray:
 def per_foot(values: np.ndarray, leg: np.ndarray, n_clips: int) -> list[list[np.ndarray]]:
     """Per-contact ``values`` in the order of :func:`runs`, split per clip and foot."""
     cuts = np.searchsorted(leg, np.arange(1, 4 * n_clips))
-    feet = np.split(np.asarray(values), cuts)
+    feet = _split_at(np.asarray(values), cuts)
     return [feet[4 * i:4 * i + 4] for i in range(n_clips)]
 
 
@@ -236,6 +237,6 @@ def events(contacts, fps: float, feet, heights) -> list[list[dict]]:
     off = np.where(e == T, np.nan, off / fps)
     cuts = np.searchsorted(lo, np.arange(1, 4 * N) * L)
     legs = [{"s": a, "e": b, "on": p, "off": q} for a, b, p, q in
-            zip(*(np.split(x, cuts) for x in (s, e, on, off)))]
+            zip(*(_split_at(x, cuts) for x in (s, e, on, off)))]
     return [legs[4 * i:4 * i + 4] for i in range(N)]
 
