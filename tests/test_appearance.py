@@ -209,15 +209,15 @@ def test_quadsim_metrics_reports_what_a_viewer_sees_from_a_bvh(gallop, tmp_path,
 def test_the_flight_fit_is_the_least_squares_parabola(n):
     """The flight's curvature is numpy's least-squares quadratic fit, found in closed
     form: a parabola of -g/2 comes back exactly, noise as polyfit sees it."""
-    from quadsim.analysis.appearance import _quadratic_coefficient
+    from quadsim.analysis.appearance_kernels import quadratic_coefficient
 
     fps = 60.0
     t = np.arange(n) / fps
     rng = np.random.default_rng(n)
     y = 0.3 + 1.5 * t - 0.5 * 9.81 * t * t
-    assert _quadratic_coefficient(y, fps) == pytest.approx(-0.5 * 9.81, rel=1e-9)
+    assert quadratic_coefficient(y, fps) == pytest.approx(-0.5 * 9.81, rel=1e-9)
     noisy = y + rng.normal(scale=0.01, size=n)
-    assert _quadratic_coefficient(noisy, fps) == pytest.approx(
+    assert quadratic_coefficient(noisy, fps) == pytest.approx(
         np.polyfit(t - t.mean(), noisy, 2)[0], rel=1e-9, abs=1e-9)
 
 

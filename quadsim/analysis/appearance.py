@@ -48,9 +48,6 @@ from quadsim.analysis.appearance_kernels import (
     series_rows,
     stride_medians,
 )
-from quadsim.analysis.appearance_kernels import (  # the flight fit, by its old name
-    quadratic_coefficient as _quadratic_coefficient,  # noqa: F401
-)
 from quadsim.frames import GRAVITY, LEGS, X, Y, Z
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton.contacts import _split_at, foot_contacts
