@@ -123,7 +123,7 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
 #: fore girdle kept from crouching lower than CROUCH_REACH allows.
 TRUNK_JOLT_G = 6.0
 JOLTS_ABOVE_BOUND = {("horse", "walk"): 8.9, ("horse", "trot"): 7.5, ("horse", "pace"): 6.3,
-                 ("leopard", "trot"): 7.0, ("leopard_cub", "trot"): 6.2}
+                     ("leopard", "trot"): 7.0, ("leopard_cub", "trot"): 6.2}
 
 
 @pytest.mark.parametrize("character,gait", [

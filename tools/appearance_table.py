@@ -34,7 +34,8 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
            ("head", "head_pitch_range_deg", ".1f"), ("toe-", "toe_below_ground_mm", ".1f"),
            ("slide", "toe_slide_mm_p90", ".1f"), ("td", "touchdown_speed_ratio_p90", ".2f"),
            ("tdv", "touchdown_descent_ratio_p90", ".2f"),
-           ("lo", "liftoff_speed_ratio_p90", ".2f"), ("fl g", "flight_g", ".2f"), ("jolt", "trunk_jolt_g", ".1f"),
+           ("lo", "liftoff_speed_ratio_p90", ".2f"), ("fl g", "flight_g", ".2f"),
+           ("jolt", "trunk_jolt_g", ".1f"),
            ("w max", "peak_joint_speed_deg_s", ".0f"), ("lock%", "locked_pct", ".1f"),
            ("ek%", "elbow_knee_pct", ".1f"), ("ek170", "elbow_knee_near_pct", ".1f")]
 
