@@ -156,3 +156,37 @@ def test_scalar_progress_broadcasts_over_a_batch_of_steps():
     a, b, h = random_level_steps(rng, 5)
     p = swing_position(a, b, h, 0.5)
     np.testing.assert_allclose(p, swing_position(a, b, h, np.full(5, 0.5)), atol=1e-15)
+
+
+@pytest.mark.parametrize("fast", [0.5, 1.0])
+def test_the_fast_gaits_path_keeps_the_slow_paths_shape(fast):
+    """Blended towards the fast gaits' knots, a swing still runs from lift-off to
+    touchdown, forwards all the way, clear of the ground by about its height."""
+    rng = np.random.default_rng(55)
+    a, b, h = random_level_steps(rng, 300)
+    np.testing.assert_array_equal(swing_position(a, b, h, np.zeros(300), fast), a)
+    np.testing.assert_allclose(swing_position(a, b, h, np.ones(300), fast), b, rtol=0,
+                               atol=1e-13)
+    s = np.broadcast_to(np.linspace(0.0, 1.0, 2001), (len(a), 2001))
+    p = swing_position(a[:, None], b[:, None], h[:, None], s, fast) - a[:, None]
+    u = (b - a) / np.linalg.norm(b - a, axis=-1, keepdims=True)
+    assert np.all(np.diff(np.einsum("nmi,ni->nm", p, u), axis=1) > 0)
+    peak = p[..., 1].max(axis=1) / h
+    assert np.all((peak >= 0.9) & (peak <= 1.2)) and p[:, 1:-1, 1].min() > 0
+
+
+def test_the_fast_gaits_path_eases_out_over_the_last_quarter():
+    """An eighth of the swing before touchdown the fast gaits' foot still moves
+    forward at about half its mean speed (the slow gaits' at a fifth: it has
+    braked harder), and both stop at touchdown."""
+    a, b, h = np.zeros((1, 1, 3)), np.array([[[0.0, 0.0, 1.0]]]), np.array([[0.1]])
+    s = np.array([0.875, 0.876, 0.999999, 1.0])[:, None]
+
+    def speed(fast):  # per unit of progress: the mean is 1
+        z = swing_position(a, b, h, s, fast)[:, 0, 2]
+        return (z[1] - z[0]) / 0.001, (z[3] - z[2]) / 1e-6
+
+    slow_mid, slow_end = speed(0.0)
+    fast_mid, fast_end = speed(1.0)
+    assert fast_mid > 0.4 and 0.1 < slow_mid < 0.3
+    assert abs(fast_end) < 1e-3 and abs(slow_end) < 1e-3

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from quadsim.locomotion.footpath import swing_into
+from quadsim.locomotion.footpath import FAST_DUTY, SLOW_DUTY, swing_into
 from quadsim.locomotion.rowmath import MIN_SWING, frac, plan_inner
 from quadsim.locomotion.turning import arc_step
 
@@ -51,7 +51,7 @@ def feet_rows(state, scratch, reach, sc, out):
     state : PlanState
         Reads the phases ``cpg.theta`` (after this step's CPG update),
         ``cpg.freq``, the speed and turn rate, the duty factor and swing
-        height of ``schedule.params``; updates ``feet`` in place.
+        height and bound of ``schedule.params``; updates ``feet`` in place.
     scratch : StepScratch
         ``theta_prev``, the key points, ``final_duty``, ``trailing`` and
         ``half_min`` of this step.
@@ -95,6 +95,9 @@ def feet_rows(state, scratch, reach, sc, out):
                 sp = min(max((th - theta_lo[n, i]) / (theta_td[n, i] - theta_lo[n, i]), 0.0),
                          1.0)
                 swing_s[n, i] = max(swing_s[n, i], sp)
+        # the share of the fast gaits' swing path (footpath.fast_share)
+        fast = min(max((SLOW_DUTY - dn) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0) \
+            * (1.0 - state.schedule.params.bound[n])
         lead = min(LEAD_STANCE_FRACTION * stance_time,
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
@@ -136,7 +139,7 @@ def feet_rows(state, scratch, reach, sc, out):
                 feet[n, i, 0], feet[n, i, 1], feet[n, i, 2] = tx, 0.0, tz
                 stance[n, i] = True
                 continue
-            swing_into((ax, ay, az), (tx, 0.0, tz), height, s, feet, n, i)
+            swing_into((ax, ay, az), (tx, 0.0, tz), height, s, fast, feet, n, i)
             # how far the touchdown point will be from the leg's top joint then
             # (the body stage lowers the trunk ahead of a landing out of its reach)
             t_td = max((theta_td[n, i] - theta[n, i]) / omega, 0.0)
