@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 
-from quadsim.locomotion.footpath import FAST_DUTY, SLOW_DUTY, swing_into
+from quadsim.locomotion.footpath import fast_share, swing_into
 from quadsim.locomotion.rowmath import MIN_SWING, frac, plan_inner
 from quadsim.locomotion.turning import arc_step
 
@@ -95,9 +95,7 @@ def feet_rows(state, scratch, reach, sc, out):
                 sp = min(max((th - theta_lo[n, i]) / (theta_td[n, i] - theta_lo[n, i]), 0.0),
                          1.0)
                 swing_s[n, i] = max(swing_s[n, i], sp)
-        # the share of the fast gaits' swing path (footpath.fast_share)
-        fast = min(max((SLOW_DUTY - dn) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0) \
-            * (1.0 - state.schedule.params.bound[n])
+        fast = fast_share(dn, state.schedule.params.bound[n])  # the fast gaits' swing path
         lead = min(LEAD_STANCE_FRACTION * stance_time,
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):

@@ -86,14 +86,17 @@ SWING_KNOTS_FAST = np.array([
     [1.00, 0.00],
     [0.88, 0.20],
 ])
-#: ... blended in between by the duty factor (and the bound).
+#: ... blended in between by the duty factor (and the bound). Only the forward
+#: fractions differ: the clearance is the slow path's.
 SLOW_DUTY, FAST_DUTY = 0.6, 0.4
+assert np.array_equal(SWING_KNOTS_FAST[:, 1], SWING_KNOTS[:, 1])
 
 
-def fast_share(duty: float, bound: float = 0.0) -> float:
+@njit(cache=True, inline="always")
+def fast_share(duty: float, bound: float) -> float:
     """How much of :data:`SWING_KNOTS_FAST` a swing takes in a gait of duty factor
     ``duty`` that bounds by ``bound`` (0 to 1): 0 at :data:`SLOW_DUTY` and above,
-    1 at :data:`FAST_DUTY` and below, times ``1 - bound``."""
+    1 at :data:`FAST_DUTY` and below, times ``1 - bound`` (the feet stage's, compiled)."""
     return min(max((SLOW_DUTY - duty) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0) * (1.0 - bound)
 
 
@@ -118,7 +121,8 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
     fast : float
         The share of :data:`SWING_KNOTS_FAST` (:func:`fast_share`).
     """
-    knots = SWING_KNOTS + fast * (SWING_KNOTS_FAST - SWING_KNOTS)
+    knots = SWING_KNOTS.copy()
+    knots[:, 0] += fast * (SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0])
     a = np.asarray(liftoff, dtype=float)
     b = np.asarray(touchdown, dtype=float)
     h = np.asarray(height, dtype=float)[..., None, None] * UP
@@ -162,10 +166,10 @@ def swing_into(a, b, height, s, fast, out, n, i):
         ac = a[c]
         dc = b[c] - ac
         up = height if c == 1 else 0.0
-        p0 = ac + (_KNOTS[j, 0] + fast * _TURN[j, 0]) * dc + _KNOTS[j, 1] * up
-        p1 = ac + (_KNOTS[j + 1, 0] + fast * _TURN[j + 1, 0]) * dc + _KNOTS[j + 1, 1] * up
-        p2 = ac + (_KNOTS[j + 2, 0] + fast * _TURN[j + 2, 0]) * dc + _KNOTS[j + 2, 1] * up
-        p3 = ac + (_KNOTS[j + 3, 0] + fast * _TURN[j + 3, 0]) * dc + _KNOTS[j + 3, 1] * up
+        p0 = ac + (_KNOTS[j, 0] + fast * _TURN[j]) * dc + _KNOTS[j, 1] * up
+        p1 = ac + (_KNOTS[j + 1, 0] + fast * _TURN[j + 1]) * dc + _KNOTS[j + 1, 1] * up
+        p2 = ac + (_KNOTS[j + 2, 0] + fast * _TURN[j + 2]) * dc + _KNOTS[j + 2, 1] * up
+        p3 = ac + (_KNOTS[j + 3, 0] + fast * _TURN[j + 3]) * dc + _KNOTS[j + 3, 1] * up
         out[n, i, c] = 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
                               + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
 
@@ -178,4 +182,4 @@ def _swing_rows(a, b, h, s, f, out):
 
 
 _KNOTS = np.ascontiguousarray(SWING_KNOTS, dtype=float)
-_TURN = np.ascontiguousarray(SWING_KNOTS_FAST - SWING_KNOTS, dtype=float)
+_TURN = np.ascontiguousarray(SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0], dtype=float)
