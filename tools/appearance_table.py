@@ -2,7 +2,7 @@
 
 ::
 
-    python tools/appearance_table.py [--seconds 10] [--json FILE] [--markdown]
+    python tools/appearance_table.py [--seconds 10] [--fps 60] [--json FILE] [--markdown]
 
 Each character runs each of its gaits at the gait's preferred speed (the
 data-driven horse at four speeds); the first 3 s are left out. Columns (see
@@ -12,7 +12,10 @@ head pitch range, the deepest toe tip and its slide, foot speed over body
 speed at touchdown (ground and descent) and after lift-off, the flight phases' vertical
 acceleration (median, g), peak joint speed and the worst hinge's locked share
 of swing frames, and the worst elbow's or knee's, locked and at 170 degrees or more. ``--markdown`` also prints the README's table (the walk, trot
-and rotary gallop of each character) from the same figures.
+and rotary gallop of each character) from the same figures. ``--fps`` runs
+and measures at another frame rate: a motion whose figures grow with it (a
+joint's peak speed, the trunk's jolt) has a jump in rate the 60 fps frames
+smear out.
 """
 
 from __future__ import annotations
@@ -40,13 +43,14 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
            ("ek%", "elbow_knee_pct", ".1f"), ("ek170", "elbow_knee_near_pct", ".1f")]
 
 
-def _cases(seconds: float):
+def _cases(seconds: float, fps: int = 60):
     for cid in ("leopard", "leopard_cub", "dog_cub", "horse"):
         for g in GAITS:
-            yield f"{cid} {g}", lambda cid=cid, g=g: quadsim.run(cid, gait=g, seconds=seconds)
+            yield f"{cid} {g}", lambda cid=cid, g=g: quadsim.run(cid, gait=g, seconds=seconds,
+                                                                 fps=fps)
     for v in (1.6, 4.0, 6.5, 12.0):
         yield f"horse data {v:g} m/s", lambda v=v: quadsim.run("horse", mode="data", speed=v,
-                                                              seconds=seconds)
+                                                              seconds=seconds, fps=fps)
 
 
 #: The README table's rows: each character's walk, trot and rotary gallop.
@@ -84,12 +88,13 @@ def markdown(rows: dict) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--seconds", type=float, default=10.0)
+    p.add_argument("--fps", type=int, default=60, help="frame rate of the runs (default 60)")
     p.add_argument("--json", metavar="FILE")
     p.add_argument("--markdown", action="store_true", help="also print the README's table")
     a = p.parse_args(argv)
     rows = {}
     print(f"{'case':30s}" + "".join(f"{h:>7s}" for h, _, _ in COLUMNS))
-    for name, make in _cases(a.seconds):
+    for name, make in _cases(a.seconds, a.fps):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             r = appearance_report(make(), start=3.0)
