@@ -28,6 +28,7 @@ import warnings
 import numpy as np
 
 import quadsim
+from quadsim.errors import InputError
 from quadsim.analysis.appearance import appearance_report
 
 GAITS = ("walk", "trot", "pace", "canter", "transverse_gallop", "rotary_gallop")
@@ -92,6 +93,10 @@ def main(argv=None) -> int:
     p.add_argument("--json", metavar="FILE")
     p.add_argument("--markdown", action="store_true", help="also print the README's table")
     a = p.parse_args(argv)
+    try:  # a run the engine refuses (say --fps 0) is a usage error, not a traceback
+        quadsim.run("leopard", gait="walk", seconds=a.seconds, fps=a.fps)
+    except InputError as e:
+        p.error(str(e))
     rows = {}
     print(f"{'case':30s}" + "".join(f"{h:>7s}" for h, _, _ in COLUMNS))
     for name, make in _cases(a.seconds, a.fps):
