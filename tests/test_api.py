@@ -27,7 +27,7 @@ def test_run_of_a_character_and_a_gait_trots_at_the_trot_duty_factor():
     motion = quadsim.run("leopard", gait="trot", seconds=4)
     assert motion.n_frames == 240 and set(motion.gaits) == {"trot"}
     # measured from the feet, after the start: diagonal pairs share their contact frames
-    c = foot_contacts(motion.foot_positions(), motion.fps)[120:]
+    c = foot_contacts(motion.contact_points(), motion.fps)[120:]
     lf, rf, lh, rh = c.T
     assert (lf == rh).mean() > 0.9 and (rf == lh).mean() > 0.9
     assert (lf != rf).mean() > 0.5

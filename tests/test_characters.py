@@ -240,7 +240,7 @@ def test_locomotion_table_reads_as_a_mapping_of_the_keys_given(name):
     assert loc["auto"] == loc.auto and loc.get("max_turn_rate_deg_s") == loc.max_turn_rate_deg_s
     assert set(loc) == {k for k in ("gaits", "auto", "max_turn_rate_deg_s", "spine_flex_deg",
                                     "spine_extend_deg", "spine_slow_scale",
-                                    "min_turn_radius_body_lengths", "head_nod_deg")
+                                    "min_turn_radius_body_lengths", "head_nod_deg", "toe_roll_deg")
                         if getattr(loc, k) is not None}
     assert "min_turn_radius_body_lengths" not in loc
     assert loc.get("min_turn_radius_body_lengths", 1.0) == 1.0
@@ -482,6 +482,9 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
     pytest.param(BASE + "\n[locomotion]\nmax_turn_rate_deg_s = -30.0\n",
                  r"locomotion\.max_turn_rate_deg_s = -30\.0 is out of range; allowed 0 <",
                  id="negative-turn-rate"),
+    pytest.param(BASE + "\n[locomotion]\ntoe_roll_deg = 75.0\n",
+                 r"locomotion\.toe_roll_deg = 75\.0 is out of range; allowed 0 <= .* <= 60",
+                 id="toe-roll-past-60-degrees"),
     # geometry: zero-length bones
     pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.0, 0.0, 0.0]")),
                  r"joints\[7\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_knee' sits on its "

@@ -69,7 +69,7 @@ def test_bars_are_measured_from_foot_positions_not_planned_contacts(ramp, ramp_d
     for a, b in zip(ramp_data.bars, other.bars):
         np.testing.assert_array_equal(a, b)
     # the bars cover the frames metrics.foot_contacts finds
-    c = foot_contacts(ramp.foot_positions(), ramp.fps)
+    c = foot_contacts(ramp.contact_points(), ramp.fps)
     np.testing.assert_array_equal(ramp_data.contacts, c)
     t = ramp_data.times
     for i, bars in enumerate(ramp_data.bars):

@@ -59,7 +59,7 @@ def test_the_shared_path_gives_exactly_the_figures_of_the_separate_reports(motio
 def test_its_contacts_are_those_a_npz_file_stores(motions):
     for name, m in motions.items():
         got = measure_motion(m)
-        want = foot_contacts(m.foot_positions(), m.fps)
+        want = foot_contacts(m.contact_points(), m.fps)
         assert got.contacts.dtype == bool and np.array_equal(got.contacts, want), name
         a, b = npz_arrays(m, got.contacts), npz_arrays(m)
         assert list(a) == list(b)
@@ -76,7 +76,7 @@ def test_on_uneven_ground_the_figures_are_measured_from_the_ground_under_the_fee
     got = measure_motion(hilly)
     assert _same(got.report, _separately(hilly))
     # the file's contacts are of the feet as they are, not over the ground
-    assert np.array_equal(got.contacts, foot_contacts(hilly.foot_positions(), hilly.fps))
+    assert np.array_equal(got.contacts, foot_contacts(hilly.contact_points(), hilly.fps))
 
 
 def test_without_the_appearance_the_footfalls_are_those_of_motion_report(motions):

@@ -56,7 +56,7 @@ def test_npz_round_trip(motion, tmp_path):
     np.testing.assert_allclose(d["times"], motion.times, rtol=0, atol=1e-12)
     assert d["contacts"].dtype == bool and d["contacts"].shape == (T, 4)
     np.testing.assert_array_equal(d["contacts"],
-                                  foot_contacts(motion.foot_positions(), motion.fps))
+                                  foot_contacts(motion.contact_points(), motion.fps))
     assert d["contacts"].any(axis=0).all()   # every foot touches down in 3 s of walking
     np.testing.assert_array_equal(d["planned_contacts"], motion.contacts)
     assert list(d["gaits"]) == [str(g) for g in motion.gaits]
@@ -95,7 +95,7 @@ def test_csv_round_trip(motion, tmp_path):
     pos = table[:, 1:1 + 3 * len(names)].reshape(len(motion), len(names), 3)
     np.testing.assert_allclose(pos, motion.world_positions(), rtol=0, atol=1e-9)
     np.testing.assert_array_equal(table[:, -4:].astype(bool),
-                                  foot_contacts(motion.foot_positions(), motion.fps))
+                                  foot_contacts(motion.contact_points(), motion.fps))
 
 
 def test_csv_without_feet(bare, tmp_path):

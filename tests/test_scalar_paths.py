@@ -103,7 +103,8 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     liftoff = rng.normal(0, 1, (n, 4, 3))
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
-                                                   liftoff)), np.zeros((n, 4)), np.zeros((n, 4)))
+                                                   liftoff)), np.zeros((n, 4)), np.zeros((n, 4)),
+                            np.zeros((n, 4)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -118,7 +119,8 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
                                          half_min=half)
     reach = B.ReachTables(np.zeros(2), np.zeros((n, 2, 4)), np.zeros((n, 2)),
                           np.zeros((n, 4, 2)), offset, np.zeros((n, 4)), np.zeros((n, 4)),
-                          np.full((n, 4), np.inf), np.zeros((n, 4)))
+                          np.full((n, 4), np.inf), np.zeros((n, 4)), np.zeros((n, 4, 2)),
+                          np.zeros((n, 4)))  # no toe tips: the feet do not roll
     out = B.plan_outputs(n)
     _feet_stage(state, scratch, reach, step_constants(ControllerSettings(), 1 / 60), out)
     feet, fold = out.feet, out.fold

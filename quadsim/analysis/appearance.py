@@ -28,8 +28,9 @@ so it works on any quadruped BVH:
   of them, and the worst elbow or knee (in each leg the hinge between its
   two longest bones), locked and nearly straight (:data:`NEAR_STRAIGHT_DEG`).
 
-Stance comes from :func:`~quadsim.skeleton.contacts.foot_contacts` on the foot
-joints (measured from the ground under them when the motion carries it);
+Stance comes from :func:`~quadsim.skeleton.contacts.foot_contacts` on the toe
+tips (on the foot joints measured from the ground under them when the motion
+carries it, :func:`ground_points`);
 strides run from one left-hind touchdown to the next. Angles are reported
 in degrees, lengths in metres unless named ``_mm``.
 """
@@ -77,6 +78,19 @@ def _ground(motion) -> np.ndarray:
     g = (getattr(motion, "extras", None) or {}).get("ground")
     T = motion.n_frames
     return np.zeros((T, 4)) if g is None else np.asarray(g, dtype=float).reshape(T, 4)
+
+
+def ground_points(motion, anatomy: Anatomy) -> np.ndarray:
+    """Where the anatomy's feet meet the ground, heights over the ground under them,
+    shape (T, 4, 3) (m): the toe tips on flat ground, the foot joints over
+    ``extras["ground"]`` on uneven ground (as
+    :func:`~quadsim.analysis.report.feet_over_ground`)."""
+    g = (getattr(motion, "extras", None) or {}).get("ground")
+    if g is None:
+        return toe_positions(motion, anatomy)
+    feet = motion.world_positions()[:, list(anatomy.feet)].copy()
+    feet[..., Y] -= _ground(motion)
+    return feet
 
 
 def toe_positions(motion, anatomy: Anatomy | None = None) -> np.ndarray:
@@ -233,8 +247,9 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
     if k0 >= len(Pall) - 2:
         raise ValueError(f"`start` = {start:g} s leaves fewer than three frames of the "
                          f"{motion.duration:.3g} s motion")
-    feet = Pall[k0:, list(a.feet)].copy()
-    feet[..., Y] -= _ground(motion)[k0:]
+    # stance is where the toe tips are planted (a foot rolling over its toe lifts
+    # its joint while the tip stays put)
+    feet = ground_points(motion, a)[k0:]
     return appearance_from_arrays(motion, a, k0, foot_contacts(feet, fps),
                                   angular_velocity(motion)[k0:])
 

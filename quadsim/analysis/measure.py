@@ -26,9 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadsim.analysis.angular import angular_figures
-from quadsim.analysis.appearance import _ground, appearance_from_arrays, appearance_many
+from quadsim.analysis.appearance import appearance_from_arrays, appearance_many, ground_points, toe_positions
 from quadsim.analysis.report import feet_over_ground, report_from_arrays
-from quadsim.frames import Y
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton import contacts_many
 from quadsim.skeleton.contacts import default_contact_thresholds, foot_contacts
@@ -104,15 +103,13 @@ def measure_motion(motion, *, anatomy: Anatomy | None = None,
             if tuple(a.feet) == tuple(motion.skeleton.indices(motion.foot_joints)):
                 mine = contacts
             else:
-                f = motion.world_positions()[:, list(a.feet)].copy()
-                f[..., Y] -= _ground(motion)
-                mine = foot_contacts(f, fps)
+                mine = foot_contacts(ground_points(motion, a), fps)
             report["appearance"] = appearance_from_arrays(motion, a, 0, mine, joint_speed)
         except ValueError:  # no quadruped structure to measure the trunk and head on
             report["appearance"] = None
     ground = (getattr(motion, "extras", None) or {}).get("ground")
     if ground is not None:
-        contacts = foot_contacts(motion.foot_positions(), fps)
+        contacts = foot_contacts(motion.contact_points(), fps)
     return Measured(report, contacts)
 
 
@@ -155,7 +152,7 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
         return [measure_motion(m, anatomy=anatomy, appearance=appearance) for m in motions]
     m0 = motions[0]
     fps = float(m0.fps)
-    each = [m.foot_positions() for m in motions]  # as measure_motion has them
+    each = [m.contact_points() for m in motions]  # as measure_motion has them
     feet = np.stack(each)  # (N, T, 4, 3)
     heights, speeds = contacts_many.default_thresholds(feet)
     together = contacts_many.foot_contacts(feet, fps, heights, speeds)
@@ -184,7 +181,7 @@ def measure_motions(motions, *, anatomy: Anatomy | None = None,
     if a is not None:
         try:
             mine = contacts if same_feet else [
-                foot_contacts(m.world_positions()[:, list(a.feet)], fps) for m in motions]
+                foot_contacts(toe_positions(m, a), fps) for m in motions]
             found = appearance_many(motions, a, mine, speeds_of)
         except ValueError:  # some cannot be measured: each as measure_motion would
             found = [measure_motion(m, anatomy=a).report["appearance"] for m in motions]

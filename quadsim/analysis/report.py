@@ -281,18 +281,22 @@ def report_from_arrays(feet, root_positions, fps, contacts, omega=None, *, start
 
 
 def feet_over_ground(motion) -> np.ndarray:
-    """Foot positions (T, 4, 3) (m) with their height taken above the ground under them.
+    """The feet's ground points (T, 4, 3) (m) with their height taken above the ground
+    under them.
 
-    A motion made on uneven ground carries the ground's height under each foot
+    On flat ground (``y = 0``) they are the toe tips
+    (:meth:`~quadsim.skeleton.motion.Motion.contact_points`): a paw rolling over
+    its toe at push-off lifts its joint while the tip stays planted. A motion
+    made on uneven ground carries the ground's height under each foot *joint*
     on each frame as ``extras["ground"]`` (T, 4) (the data-driven horse on
-    slopes); its feet are then measured from that ground, so contacts on a
-    ramp count as on the ground. Without it the ground is ``y = 0`` and the
-    positions are returned as they are.
+    slopes, whose hooves stay level in stance: their toe tips touch and leave
+    the ground on the joints' frames); its foot joints are then measured from
+    that ground, so contacts on a ramp count as on the ground.
     """
-    feet = motion.foot_positions()
     ground = (getattr(motion, "extras", None) or {}).get("ground")
     if ground is None:
-        return feet
+        return motion.contact_points()
+    feet = motion.foot_positions()
     ground = np.asarray(ground, dtype=float)
     if ground.shape != feet.shape[:2]:
         raise ValueError(f"extras['ground'] has shape {ground.shape}, expected "

@@ -64,7 +64,7 @@ def _measured_contacts(motion: Motion) -> np.ndarray | None:
         return None
     from quadsim.analysis.metrics import foot_contacts
 
-    return foot_contacts(motion.foot_positions(), motion.fps)
+    return foot_contacts(motion.contact_points(), motion.fps)
 
 
 def npz_arrays(motion: Motion, contacts: np.ndarray | None = None) -> dict[str, np.ndarray]:

@@ -48,7 +48,6 @@ from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.gaits import STAND, gait_ids, resolve_gait_name
 from quadsim.locomotion.plan_kernels import (
     LOOK_PER_BEND,
-    TOE_PER_FOLD,
     plan_rows,
     run_plan,
     step_constants,
@@ -358,7 +357,7 @@ class BatchController:
         return {
             "root": root, "heading": mo.heading.copy(), "pitch": out.pitch, "sway": out.sway,
             "bend_yaw": bend, "bend_pitch": spine, "feet": out.feet,
-            "fold": out.fold, "toe": TOE_PER_FOLD * out.fold, "tail": bs.tail.copy(),
+            "fold": out.fold, "toe": out.toe.copy(), "tail": bs.tail.copy(),
             "look": LOOK_PER_BEND * bend, "foot_yaw": st.feet.yaw.copy(),
             "contacts": st.feet.stance.copy(),
             "gait": st.schedule.current.copy(), "phase": out.phase, "speed": mo.speed.copy(),

@@ -87,6 +87,8 @@ class ReachTables(NamedTuple):
     top_ahead: np.ndarray    #: (N, 4) ... and how far ahead of its key point (m)
     radius: np.ndarray       #: (N, 4) how far each leg's foot reaches from its top joint (m)
     flex_lift: np.ndarray    #: (N, 4) each top joint's rise per rad of spine flexion (m/rad)
+    toe: np.ndarray          #: (N, 4, 2) each toe tip from its foot joint, level (forward, up) (m)
+    roll: np.ndarray         #: (N, 4) how far each foot rolls over its toe tip by lift-off (rad)
 
 
 class StepConstants(NamedTuple):
@@ -166,6 +168,7 @@ class FeetState(NamedTuple):
     liftoff: np.ndarray   #: (N, 4, 3) where each swing began (m)
     yaw: np.ndarray       #: world yaw each foot keeps (rad): its landing heading in stance
     yaw_lo: np.ndarray    #: ... and had at its lift-off
+    toe_lo: np.ndarray    #: each foot's pitch, toes down, at its lift-off (rad)
 
 
 class BodyState(NamedTuple):
@@ -222,6 +225,7 @@ class PlanOutputs(NamedTuple):
 
     feet: np.ndarray             #: (N, 4, 3) foot targets (m)
     fold: np.ndarray             #: (N, 4) swing fold 0..1
+    toe: np.ndarray              #: (N, 4) each foot's pitch, toes down (rad)
     pitch: np.ndarray            #: (N,) whole-body pitch (rad)
     sway: np.ndarray             #: (N, 2) hind and fore girdle sway (rad)
     phase: np.ndarray            #: (N, 4) stride fractions
@@ -251,7 +255,8 @@ def step_scratch(n: int) -> StepScratch:
 
 def plan_outputs(n: int, packed_columns: int = 0) -> PlanOutputs:
     """An empty :class:`PlanOutputs` of ``n`` rows (``packed_columns``: 0 packs nothing)."""
-    return PlanOutputs(np.empty((n, 4, 3)), np.empty((n, 4)), np.empty(n), np.empty((n, 2)),
+    return PlanOutputs(np.empty((n, 4, 3)), np.empty((n, 4)), np.empty((n, 4)), np.empty(n),
+                       np.empty((n, 2)),
                        np.empty((n, 4)), np.empty((n, packed_columns)),
                        np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_),
                        np.zeros(n, dtype=np.bool_), np.zeros(n), np.zeros(n))

@@ -52,7 +52,6 @@ from quadsim.locomotion.plan_kernels import (
     GAIT_HOLD_FACTOR,
     LOOK_PER_BEND,
     MIN_TURN_SPEED,
-    TOE_PER_FOLD,
     plan_rows,
     step_constants,
 )
@@ -329,7 +328,7 @@ class ProceduralController:
             "root": np.array((x, bs.height.item(0), z)),
             "heading": mo.heading.item(0), "pitch": out.pitch.item(0),
             "sway": out.sway[0].copy(), "bend_yaw": bend, "bend_pitch": spine,
-            "feet": out.feet[0].copy(), "fold": fold, "toe": TOE_PER_FOLD * fold,
+            "feet": out.feet[0].copy(), "fold": fold, "toe": out.toe[0].copy(),
             "tail": bs.tail[0].copy(), "look": LOOK_PER_BEND * bend,
             "foot_yaw": st.feet.yaw[0].copy(),
             "contacts": st.feet.stance[0].copy(), "gait": self._label,

@@ -1,6 +1,8 @@
 """The feet stage of the plan, compiled: lift-off, touchdown and swing paths.
 
-A planted foot stays where it landed. It lifts off when its stride fraction
+A planted foot stays where it landed, level; a character's paws may roll
+over their toe tips through the last part of the stance (the heel rising,
+the toe tip put: ``[locomotion] toe_roll_deg``). It lifts off when its stride fraction
 passes the duty factor (or when it is about to fall out of reach), and
 swings along the Catmull-Rom path (:func:`~quadsim.locomotion.footpath.swing_into`)
 to a touchdown point planned about its girdle's key point where that will
@@ -39,6 +41,48 @@ TOUCHDOWN_EPS = 1e-12
 #: still lands on its touchdown point.
 SWING_REACH = 0.98
 REACH_HOLD_UNTIL = 0.8
+#: A swinging foot's toes curl by this many radians per unit of its fold (the
+#: posing's toe pitch: positive lifts the toes).
+TOE_PER_FOLD = 0.5
+#: A foot that rolls over its toe tip by lift-off (``reach.roll``, the character
+#: file's ``toe_roll_deg``) starts to lift its heel after this fraction of its
+#: stance, its pitch growing as the square of the time since (so the joint leaves
+#: the ground already rising: eased out to rest at lift-off, it stopped there
+#: and the leg snapped straight in the swing's first frame, the leopard's canter
+#: elbow at 2,368 deg/s).
+ROLL_FROM = 0.4
+#: ... in gaits of duty factor up to this; none at all where no foot lifts
+#: (``1 - MIN_SWING``: standing), faded out in between, so a character that
+#: stops comes onto flat feet (it stood on tiptoe, its heels 38-46 mm up).
+ROLL_DUTY = 0.8
+
+
+@plan_inner
+def toe_pitch(p, roll, duty):
+    """A planted foot's pitch, toes down (rad), ``p`` (0 to 1) into its stance in a
+    gait of duty factor ``duty``: none until :data:`ROLL_FROM`, then ``roll`` times
+    the square of the share of the rest of the stance gone by (faded out from
+    :data:`ROLL_DUTY` to ``1 - MIN_SWING``)."""
+    fade = min(max((1.0 - MIN_SWING - duty) / (1.0 - MIN_SWING - ROLL_DUTY), 0.0), 1.0)
+    if roll <= 0.0 or p <= ROLL_FROM or fade <= 0.0:
+        return 0.0
+    e = min((p - ROLL_FROM) / (1.0 - ROLL_FROM), 1.0)
+    return fade * roll * e * e
+
+
+@plan_inner
+def pivot_on_toe(feet, n, i, x, y, z, yaw, toe, a):
+    """Put foot ``i``'s joint of row ``n`` into ``feet`` (N, 4, 3) where it is with
+    the foot standing level at (``x``, ``y``, ``z``) (m) facing world yaw ``yaw``
+    (rad), then pitched toes down by ``a`` (rad) about its toe tip (``toe[n, i]``:
+    forward and up from the joint, m): the toe tip stays where it was, the heel
+    (the joint) rises."""
+    f, u = toe[n, i, 0], toe[n, i, 1]
+    c, s = math.cos(a), math.sin(a)
+    ahead = f * (1.0 - c) - u * s
+    feet[n, i, 0] = x + ahead * math.sin(yaw)
+    feet[n, i, 1] = y + u * (1.0 - c) + f * s
+    feet[n, i, 2] = z + ahead * math.cos(yaw)
 
 
 @plan_inner
@@ -81,8 +125,11 @@ def feet_rows(state, scratch, reach, sc, out):
                 due = dn <= u <= 1.0 - MIN_SWING
                 if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > MIN_STANCE_PHASE:
                     stance[n, i] = False
-                    for c in range(3):
-                        liftoff[n, i, c] = planted[n, i, c]
+                    # it leaves from where its heel has rolled to, its toe tip last
+                    a = toe_pitch((th - theta_td[n, i]) / (TWO_PI * dn), reach.roll[n, i], dn)
+                    ft.toe_lo[n, i] = a
+                    pivot_on_toe(liftoff, n, i, planted[n, i, 0], planted[n, i, 1],
+                                 planted[n, i, 2], ft.yaw[n, i], reach.toe, a)
                     ft.yaw_lo[n, i] = ft.yaw[n, i]
                     cross = TWO_PI * (math.floor(th / TWO_PI) + dn)
                     theta_lo[n, i] = cross if due and cross > scratch.theta_prev[n, i] else th
@@ -101,9 +148,13 @@ def feet_rows(state, scratch, reach, sc, out):
         for i in range(4):
             fold[n, i] = 0.0
             scratch.td_tau[n, i] = -1.0
-            if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with
-                for c in range(3):
-                    feet[n, i, c] = planted[n, i, c]
+            if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with,
+                # its toe tip put while the heel lifts
+                a = toe_pitch((theta[n, i] - theta_td[n, i]) / (TWO_PI * dn), reach.roll[n, i],
+                              dn)
+                out.toe[n, i] = -a  # (the posing's toe pitch lifts the toes)
+                pivot_on_toe(feet, n, i, planted[n, i, 0], planted[n, i, 1], planted[n, i, 2],
+                             ft.yaw[n, i], reach.toe, a)
                 continue
             # a swinging foot turns from its lift-off yaw to the body's (the fore feet's
             # with the spine's yaw), eased in over the swing: it lands with the body's
@@ -132,11 +183,17 @@ def feet_rows(state, scratch, reach, sc, out):
             hs = state.schedule.params.swing_height[n]
             height = min(hs, CLEARANCE_PER_STEP * step_len + CLEARANCE_BASE * hs)
             s = swing_s[n, i]
-            if s >= 1.0 - TOUCHDOWN_EPS:  # touchdown
+            if s >= 1.0 - TOUCHDOWN_EPS:  # touchdown, flat
                 planted[n, i, 0], planted[n, i, 1], planted[n, i, 2] = tx, 0.0, tz
                 feet[n, i, 0], feet[n, i, 1], feet[n, i, 2] = tx, 0.0, tz
+                out.toe[n, i] = 0.0
                 stance[n, i] = True
                 continue
+            # the foot's pitch turns from its lift-off roll back to level over the
+            # swing, plus the swing's curl
+            x = 1.0 - s
+            out.toe[n, i] = TOE_PER_FOLD * math.sin(math.pi * s) ** 2 \
+                - ft.toe_lo[n, i] * x * x * (3.0 - 2.0 * x)
             swing_into((ax, ay, az), (tx, 0.0, tz), height, s, fast, feet, n, i)
             # how far the touchdown point will be from the leg's top joint then
             # (the body stage lowers the trunk ahead of a landing out of its reach)

@@ -92,9 +92,8 @@ BOUND_REACH_KEEP = 0.05
 MIN_FREQ = 1e-3
 MIN_DUTY = 1e-3
 MOVING_SPEED = 1e-6
-#: Fold of the toes and yaw of the head: these fractions of the swing fold
-#: and of the spine's bend.
-TOE_PER_FOLD = 0.5
+#: Yaw of the head: this fraction of the spine's bend (the toes' curl in swing
+#: is the feet stage's, :data:`~quadsim.locomotion.feet.TOE_PER_FOLD`).
 LOOK_PER_BEND = 0.5
 #: Time constants (s) of the spine's yaw bend, of its pitch and of the girdle
 #: drops and body height following their targets.
@@ -341,7 +340,7 @@ def pack_rows(state, out):
             for c in range(3):
                 packed[n, FEET + 3 * i + c] = out.feet[n, i, c]
             packed[n, FOLD + i] = out.fold[n, i]
-            packed[n, TOE + i] = TOE_PER_FOLD * out.fold[n, i]
+            packed[n, TOE + i] = out.toe[n, i]
         packed[n, LOOK] = LOOK_PER_BEND * mo.bend[n]
         for i in range(4):
             packed[n, FOOT_YAW + i] = state.feet.yaw[n, i]

@@ -126,6 +126,25 @@ def measure_sweeps(character: Character, poser: Poser, drops: np.ndarray) -> np.
     return out
 
 
+#: A foot pivots on its toe tip only when that is at least this far (m) ahead of
+#: its joint.
+MIN_TOE = 1e-3
+
+
+def toe_vectors(character: Character) -> np.ndarray:
+    """Each foot's toe tip (its joint's end site) from the joint, in the frame of
+    the foot standing level and facing forward: (forward, up) (m), shape (4, 2);
+    zero for a foot without an end site. The rest pose stands level, so the end
+    site's offset is that vector (its sideways part left out)."""
+    sk = character.skeleton
+    out = np.zeros((4, 2))
+    for i, leg in enumerate(character.legs):
+        end = sk.end_sites.get(sk.names[leg.chain[-1]])
+        if end is not None:
+            out[i] = end[2], end[1]
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class CharacterPlan:
     """What the compiled plan knows of one character (immutable, shared).
@@ -156,6 +175,13 @@ class CharacterPlan:
     flex_lift : ndarray, shape (4,)
         How far each leg's top joint rises per rad of spine flexion
         (:func:`flexion_lift`) (m/rad).
+    toe : ndarray, shape (4, 2)
+        Each toe tip from its foot joint in the level foot's frame, (forward,
+        up) (m) (:func:`toe_vectors`).
+    roll : ndarray, shape (4,)
+        How far each foot rolls over its toe tip by lift-off, toes down (rad):
+        ``[locomotion] toe_roll_deg``, none for a foot without a toe tip ahead
+        of its joint.
     """
 
     character: Character
@@ -172,6 +198,8 @@ class CharacterPlan:
     top_ahead: np.ndarray
     radius: np.ndarray
     flex_lift: np.ndarray
+    toe: np.ndarray
+    roll: np.ndarray
 
     @property
     def max_speed(self) -> float:
@@ -188,7 +216,9 @@ class CharacterPlan:
                            np.array(self.top_height[None], dtype=float),
                            np.array(self.top_ahead[None], dtype=float),
                            np.array(self.radius[None], dtype=float),
-                           np.array(self.flex_lift[None], dtype=float))
+                           np.array(self.flex_lift[None], dtype=float),
+                           np.array(self.toe[None], dtype=float),
+                           np.array(self.roll[None], dtype=float))
 
     def gait_id(self, name: str) -> int:
         return self.ids.index(name)
@@ -218,7 +248,7 @@ class CharacterPlan:
                           params),
             FeetState(np.ones((1, 4), dtype=bool), np.zeros((1, 4)), theta.copy(),
                       theta.copy(), feet[None].copy(), feet[None].copy(), np.zeros((1, 4)),
-                      np.zeros((1, 4))),
+                      np.zeros((1, 4)), np.zeros((1, 4))),
             BodyState(np.zeros(1), np.zeros(1), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]),
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
@@ -260,6 +290,8 @@ def character_plan(character: Character) -> CharacterPlan:
                         np.hypot(mid - sweep[0] - P[tops, 2], top_height))
     sweep.setflags(write=False)
     slowest = gaits[auto[0]]
+    toe = toe_vectors(ch)
+    roll = math.radians(float(loc.get("toe_roll_deg", 0.0)))
 
     def row(x, dtype=float):
         return np.array([x], dtype=dtype)
@@ -282,7 +314,8 @@ def character_plan(character: Character) -> CharacterPlan:
         hysteresis=row(HYSTERESIS))
     out = CharacterPlan(ch, poser, gaits, auto, ids, gait_tables([(gaits, auto)], ids), body,
                         np.ascontiguousarray(DROPS, dtype=float), sweep, foot_offset,
-                        top_height, top_ahead, radius, flexion_lift(ch, tops))
+                        top_height, top_ahead, radius, flexion_lift(ch, tops), toe,
+                        np.where(toe[:, 0] > MIN_TOE, roll, 0.0))
     _PLANS[ch] = out
     return out
 

@@ -165,6 +165,10 @@ class LocomotionTable(Mapping):
         more of the weight than the hind ones (see
         :func:`~quadsim.locomotion.pose_kernel.nod_of`); 0 or absent keeps the
         head level in space, as cats and dogs hold it.
+    toe_roll_deg : float or None
+        How far each foot rolls over its toe tip by lift-off (deg): the heel
+        rises through the last part of the stance, the toe tip planted
+        (:mod:`quadsim.locomotion.feet`); 0 or absent keeps it flat.
     """
 
     gaits: tuple[str, ...] | None = None
@@ -175,6 +179,7 @@ class LocomotionTable(Mapping):
     spine_slow_scale: float | None = None
     min_turn_radius_body_lengths: float | None = None
     head_nod_deg: float | None = None
+    toe_roll_deg: float | None = None
 
     def __getitem__(self, key: str):
         value = getattr(self, key, None) if key in _LOCOMOTION_KEYS else None
@@ -198,6 +203,7 @@ _LOCOMOTION_RANGES = {
     "spine_slow_scale": (0.0, 10.0, True),
     "min_turn_radius_body_lengths": (0.0, 100.0, False),
     "head_nod_deg": (0.0, 45.0, True),
+    "toe_roll_deg": (0.0, 60.0, True),
 }
 
 

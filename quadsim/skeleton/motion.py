@@ -208,6 +208,21 @@ class Motion:
             raise ValueError("this motion does not name its foot joints")
         return self.world_positions()[:, self.skeleton.indices(self.foot_joints)]
 
+    def contact_points(self) -> np.ndarray:
+        """World positions of the four feet's ground points, shape (T, 4, 3) (m): each
+        foot's toe tip (its joint's end site) where the skeleton gives one, else the
+        foot joint. A paw rolling over its toe at push-off lifts its joint while the
+        toe tip stays planted, so stance, slide and penetration are measured here."""
+        if self.foot_joints is None:
+            raise ValueError("this motion does not name its foot joints")
+        feet = self.skeleton.indices(self.foot_joints)
+        P = self.world_positions()[:, feet]
+        ends = np.array([self.skeleton.end_sites.get(n, np.zeros(3)) for n in self.foot_joints],
+                        dtype=float)
+        if not np.any(ends):
+            return P
+        return P + np.einsum("tlij,lj->tli", self.world_rotations_of(feet), ends)
+
     # --------------------------------------------------------------- editing
     def _replace(self, index, **kw) -> Motion:
         def pick(a):
