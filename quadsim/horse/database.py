@@ -62,6 +62,9 @@ class Clip:
         Leap clips: the gait the leap starts from.
     height : float or None
         Leap clips: the feet's clearance at the top of the flight (m).
+    toes : bool
+        Whether its contacts are found at the toe tips (a character whose feet
+        roll over them, :func:`~quadsim.horse.legs.rolls`), else at the foot joints.
     """
 
     name: str
@@ -74,6 +77,7 @@ class Clip:
     source: str = ""
     start_gait: str | None = None
     height: float | None = None
+    toes: bool = False
 
     @property
     def period(self) -> float:
@@ -234,8 +238,11 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
     """
     if motion.foot_joints is None:
         raise InputError(f"{where}: the motion does not name its foot joints")
+    from .legs import ground_points, rolls
+
     fps = motion.fps
-    feet = motion.foot_positions()
+    toes = rolls(character)
+    feet = ground_points(motion, toes)
     c = foot_contacts(feet, fps, tolerance=contact_tolerance)
     iv = stance_intervals(c, fps, feet, tolerance=contact_tolerance)
     on = [s[np.isfinite(s[:, 0]), 0] for s in iv]
@@ -305,16 +312,19 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                 s_i = s_i[(s_i[:, 0] >= t0 - 1e-9) & (s_i[:, 0] < t1 - 1e-9)]
                 stance.append((s_i - t0) * scale)
             cyc = pin_cycle(character, cyc, speed, stance)
-            td = label_touchdowns(cyc, speed)
+            td = label_touchdowns(cyc, speed, toes)
         out.append(Cycle(cyc, n, td, speed, lead, err, t0))
     return out
 
 
-def label_touchdowns(cycle: Motion, speed: float) -> np.ndarray:
-    """Touchdown frame of each foot in a looped cycle, measured, shape (4,)."""
+def label_touchdowns(cycle: Motion, speed: float, toes: bool = False) -> np.ndarray:
+    """Touchdown frame of each foot in a looped cycle, measured (at the toe tips with
+    ``toes``, :func:`~quadsim.horse.legs.ground_points`), shape (4,)."""
+    from .legs import ground_points
+
     n = len(cycle)
     three = looped(cycle, 3, speed)
-    feet = three.foot_positions()
+    feet = ground_points(three, toes)
     iv = stance_intervals(foot_contacts(feet, cycle.fps), cycle.fps, feet)
     td = np.zeros(4, dtype=int)
     for i in range(4):
@@ -326,15 +336,18 @@ def label_touchdowns(cycle: Motion, speed: float) -> np.ndarray:
     return td
 
 
-def cycle_stance(cycle: Motion, speed: float) -> list[np.ndarray]:
-    """Stance intervals of a looped cycle in frames, ``[on, off]`` per contact.
+def cycle_stance(cycle: Motion, speed: float, toes: bool = False) -> list[np.ndarray]:
+    """Stance intervals of a looped cycle in frames, ``[on, off]`` per contact
+    (measured at the toe tips with ``toes``, :func:`~quadsim.horse.legs.ground_points`).
 
     Returns a list of 4 arrays of shape (n_i, 2), ``on`` within ``[0, n)`` and
     ``off > on`` (it may pass ``n``: the contact wraps round the loop).
     """
+    from .legs import ground_points
+
     n = len(cycle)
     three = looped(cycle, 3, speed)
-    feet = three.foot_positions()
+    feet = ground_points(three, toes)
     iv = stance_intervals(foot_contacts(feet, cycle.fps), cycle.fps, feet)
     out = []
     for s in iv:
@@ -361,12 +374,12 @@ def pin_cycle(character: Character, cycle: Motion, speed: float, stance=None) ->
     ``stance`` (as from :func:`cycle_stance`, in frames) gives the contacts;
     by default they are measured.
     """
-    from .legs import keep_foot_attitude, pin_stance
+    from .legs import ground_points, keep_foot_attitude, pin_stance, rolls
 
     n = len(cycle)
     three = looped(cycle, 3, speed)
     if stance is None:
-        c = foot_contacts(three.foot_positions(), cycle.fps)
+        c = foot_contacts(ground_points(three, rolls(character)), cycle.fps)
     else:
         c = contacts_from_stance(stance, n, 3)
     pinned = pin_stance(character, three, c)
