@@ -210,7 +210,7 @@ def test_in_place_twins_keep_the_root_within_a_centimetre_and_the_pose(character
 # --------------------------------------------------------------- footfalls
 def _measured(ch, clip, copies=4):
     m = pose_rows(ch, tiled(clip, copies), FPS)
-    feet = m.contact_points()
+    feet = m.foot_positions()
     contacts = M.foot_contacts(feet, FPS)
     return m, feet, contacts
 
@@ -257,7 +257,7 @@ def test_starts_stops_and_transitions_keep_planted_feet_still(character):
     for c, _ in made:
         if c.loop:
             continue
-        feet = c.motion.contact_points()
+        feet = c.motion.foot_positions()
         contacts = M.foot_contacts(feet, FPS)
         assert M.foot_slide(feet, contacts)[1] * 1000 < SLIDE_LIMIT_MM, c.name
         assert M.ground_penetration(feet) * 1000 < PENETRATION_LIMIT_MM, c.name

@@ -98,8 +98,7 @@ def _stances_of(motion):
 
 @pytest.mark.parametrize("character,gait", [
     ("leopard", "walk"), ("leopard", "trot"), ("leopard", "transverse_gallop"),
-    ("leopard_cub", "canter"), ("leopard_cub", "rotary_gallop"), ("dog_cub", "trot"),
-    ("dog_cub", "canter")])
+    ("leopard_cub", "canter"), ("leopard_cub", "rotary_gallop")])
 def test_paws_roll_over_their_planted_toe_tips_at_push_off(character, gait):
     """The issue's push-off, from the produced joints: while a toe tip is planted (still,
     on the ground) its paw lies flat through the first 40 % of the stance, its joint
@@ -120,11 +119,12 @@ def test_paws_roll_over_their_planted_toe_tips_at_push_off(character, gait):
         assert np.linalg.norm(tip - tip[0], axis=-1).max() < 1e-4
 
 
-def test_hooves_without_a_toe_roll_stay_flat_through_the_stance():
-    """A character file without ``toe_roll_deg`` (the horse's) keeps its feet flat: the
-    foot joint stays on the ground through every stance of its trot and gallop."""
+@pytest.mark.parametrize("character", ["dog_cub", "horse"])
+def test_feet_without_a_toe_roll_stay_flat_through_the_stance(character):
+    """A character file without ``toe_roll_deg`` keeps its paws or hooves flat: the foot
+    joint stays on the ground through every stance of its trot and gallop."""
     for gait in ("trot", "rotary_gallop"):
-        m = steady("horse", gait)
+        m = steady(character, gait)
         joints = m.foot_positions()
         for leg, a, b in _stances_of(m):
             assert np.abs(joints[a:b, leg, 1]).max() < 5e-4, (gait, leg, a)
@@ -145,8 +145,9 @@ PEAK_ABOVE_BOUND = {
     ("leopard", "rotary_gallop"): "3,133 LF_elbow",
     ("leopard_cub", "transverse_gallop"): "2,763 RH_knee",
     ("leopard_cub", "rotary_gallop"): "3,433 LF_elbow",
-    ("dog_cub", "transverse_gallop"): "2,760 LF_elbow",
-    ("dog_cub", "rotary_gallop"): "3,347 LF_elbow",
+    ("dog_cub", "canter"): "2,276 LF_elbow",
+    ("dog_cub", "transverse_gallop"): "3,517 RF_elbow",
+    ("dog_cub", "rotary_gallop"): "3,076 LF_elbow",
     ("horse", "transverse_gallop"): "4,070 RH_stifle",
     ("horse", "rotary_gallop"): "3,759 LF_elbow",
 }
@@ -313,7 +314,7 @@ def test_the_horse_nods_its_head_and_cats_and_dogs_hold_theirs_level(gait, nods)
 PEAK_GROWS_WITH_FPS = {
     ("leopard", "rotary_gallop"): "3,135 -> 3,770 deg/s",
     ("leopard_cub", "transverse_gallop"): "2,763 -> 3,896 deg/s",
-    ("dog_cub", "canter"): "1,963 -> 2,305 deg/s",
+    ("dog_cub", "canter"): "2,267 -> 4,757 deg/s",
     ("horse", "trot"): "1,038 -> 1,855 deg/s",
 }
 
@@ -408,13 +409,8 @@ def test_speed_ramp_walk_to_gallop_and_back_is_smooth(character):
     t_top = script.times[25]
     seg = m.time_slice(t_top - 1.5, t_top + 0.6)
     feet = seg.contact_points()
-    contacts = M.foot_contacts(feet, FPS)
-    phase = M.phases(contacts, FPS, feet)
-    # a foot lands on the first frame at or after its planned instant: half a frame
-    # late on average, which at the top speed is 0.04 of a 12-frame stride (the dog
-    # cub's left fore lands 8 frames after the left hind for the table's 7.4)
-    late = 0.5 * M.stride_frequency(contacts, FPS, feet) / FPS
-    assert np.all(circular_distance(phase, top.phases) < 0.05 + late), (phase, top.phases)
+    phase = M.phases(M.foot_contacts(feet, FPS), FPS, feet)
+    assert np.all(circular_distance(phase, top.phases) < 0.05), (phase, top.phases)
 
 
 def _pairs(character):

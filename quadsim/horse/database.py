@@ -62,9 +62,6 @@ class Clip:
         Leap clips: the gait the leap starts from.
     height : float or None
         Leap clips: the feet's clearance at the top of the flight (m).
-    toes : bool
-        Whether its contacts are found at the toe tips (a character whose feet
-        roll over them, :func:`~quadsim.horse.legs.rolls`), else at the foot joints.
     """
 
     name: str
@@ -77,7 +74,6 @@ class Clip:
     source: str = ""
     start_gait: str | None = None
     height: float | None = None
-    toes: bool = False
 
     @property
     def period(self) -> float:
@@ -238,11 +234,8 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
     """
     if motion.foot_joints is None:
         raise InputError(f"{where}: the motion does not name its foot joints")
-    from .legs import ground_points, rolls
-
     fps = motion.fps
-    toes = rolls(character)
-    feet = ground_points(motion, toes)
+    feet = motion.foot_positions()
     c = foot_contacts(feet, fps, tolerance=contact_tolerance)
     iv = stance_intervals(c, fps, feet, tolerance=contact_tolerance)
     on = [s[np.isfinite(s[:, 0]), 0] for s in iv]
@@ -312,19 +305,16 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                 s_i = s_i[(s_i[:, 0] >= t0 - 1e-9) & (s_i[:, 0] < t1 - 1e-9)]
                 stance.append((s_i - t0) * scale)
             cyc = pin_cycle(character, cyc, speed, stance)
-            td = label_touchdowns(cyc, speed, toes)
+            td = label_touchdowns(cyc, speed)
         out.append(Cycle(cyc, n, td, speed, lead, err, t0))
     return out
 
 
-def label_touchdowns(cycle: Motion, speed: float, toes: bool = False) -> np.ndarray:
-    """Touchdown frame of each foot in a looped cycle, measured (at the toe tips with
-    ``toes``, :func:`~quadsim.horse.legs.ground_points`), shape (4,)."""
-    from .legs import ground_points
-
+def label_touchdowns(cycle: Motion, speed: float) -> np.ndarray:
+    """Touchdown frame of each foot in a looped cycle, measured, shape (4,)."""
     n = len(cycle)
     three = looped(cycle, 3, speed)
-    feet = ground_points(three, toes)
+    feet = three.foot_positions()
     iv = stance_intervals(foot_contacts(feet, cycle.fps), cycle.fps, feet)
     td = np.zeros(4, dtype=int)
     for i in range(4):
@@ -336,18 +326,15 @@ def label_touchdowns(cycle: Motion, speed: float, toes: bool = False) -> np.ndar
     return td
 
 
-def cycle_stance(cycle: Motion, speed: float, toes: bool = False) -> list[np.ndarray]:
-    """Stance intervals of a looped cycle in frames, ``[on, off]`` per contact
-    (measured at the toe tips with ``toes``, :func:`~quadsim.horse.legs.ground_points`).
+def cycle_stance(cycle: Motion, speed: float) -> list[np.ndarray]:
+    """Stance intervals of a looped cycle in frames, ``[on, off]`` per contact.
 
     Returns a list of 4 arrays of shape (n_i, 2), ``on`` within ``[0, n)`` and
     ``off > on`` (it may pass ``n``: the contact wraps round the loop).
     """
-    from .legs import ground_points
-
     n = len(cycle)
     three = looped(cycle, 3, speed)
-    feet = ground_points(three, toes)
+    feet = three.foot_positions()
     iv = stance_intervals(foot_contacts(feet, cycle.fps), cycle.fps, feet)
     out = []
     for s in iv:
@@ -374,12 +361,12 @@ def pin_cycle(character: Character, cycle: Motion, speed: float, stance=None) ->
     ``stance`` (as from :func:`cycle_stance`, in frames) gives the contacts;
     by default they are measured.
     """
-    from .legs import ground_points, keep_foot_attitude, pin_stance, rolls
+    from .legs import keep_foot_attitude, pin_stance
 
     n = len(cycle)
     three = looped(cycle, 3, speed)
     if stance is None:
-        c = foot_contacts(ground_points(three, rolls(character)), cycle.fps)
+        c = foot_contacts(three.foot_positions(), cycle.fps)
     else:
         c = contacts_from_stance(stance, n, 3)
     pinned = pin_stance(character, three, c)

@@ -293,35 +293,6 @@ def _smooth_cover(x: np.ndarray, k: int) -> np.ndarray:
     return out
 
 
-def rolls(character: Character | None) -> bool:
-    """Whether a character's feet roll over their toe tips at push-off (``[locomotion]
-    toe_roll_deg`` above 0): the data mode then finds and holds its contacts at
-    the toe tips (:func:`ground_points`), its heels rising in stance as the clips
-    have them; the horse's level hooves at the foot joints."""
-    return character is not None and float(character.locomotion.get("toe_roll_deg", 0.0)) > 0.0
-
-
-def ground_points(motion: Motion, toes: bool) -> np.ndarray:
-    """Where the data mode measures a motion's feet, (T, 4, 3) (m): the toe tips
-    (:meth:`~quadsim.skeleton.motion.Motion.contact_points`) of feet that roll over
-    them (``toes``, :func:`rolls`), else the foot joints."""
-    return motion.contact_points() if toes else motion.foot_positions()
-
-
-def held_targets(motion: Motion, contacts, toes: bool, ground: float = 0.0,
-                 **kw) -> np.ndarray:
-    """Foot joint targets (T, 4, 3) (m) holding each contact still (``kw``:
-    :func:`stance_targets`'s): the foot joints' targets, or with ``toes`` those of
-    the toe tips, each joint kept where it is from its tip frame by frame (a paw
-    rolling over its toe keeps its heel's rise)."""
-    contacts = np.asarray(contacts, dtype=bool)
-    joints = motion.foot_positions()
-    if not toes:
-        return stance_targets(joints, contacts, ground, **kw)
-    points = motion.contact_points()
-    return stance_targets(points, contacts, ground, **kw) - (points - joints)
-
-
 def pin_stance(character: Character, motion: Motion, contacts, ground: float = 0.0, *,
                anchor: str = "mid", ramp: int = 0) -> Motion:
     """The motion with every foot held still through each of its contacts.
@@ -341,10 +312,10 @@ def pin_stance(character: Character, motion: Motion, contacts, ground: float = 0
     Returns
     -------
     Motion
-        Same root; leg rotations changed by :func:`place_feet` to
-        :func:`held_targets` (at the toe tips for feet that roll, :func:`rolls`).
+        Same root; leg rotations changed by :func:`place_feet`.
     """
-    tgt = held_targets(motion, contacts, rolls(character), ground, anchor=anchor, ramp=ramp)
+    contacts = np.asarray(contacts, dtype=bool)
+    tgt = stance_targets(motion.foot_positions(), contacts, ground, anchor=anchor, ramp=ramp)
     rot = place_feet(character, motion, tgt)
     return Motion(motion.skeleton, motion.fps, motion.root_positions, rot,
                   foot_joints=motion.foot_joints)

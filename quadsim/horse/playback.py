@@ -38,7 +38,6 @@ from ..skeleton.character import Character
 from ..skeleton.contacts import foot_contacts
 from ..skeleton.motion import Motion
 from .database import GAIT_ALIASES, Clip, ClipDatabase, SpeedLaw
-from .legs import ground_points
 from .place_kernel import pack_contacts, sample_row, stance_row
 from .root import FLIGHT, clip_stance_cycles
 from .speed import DEFAULT_EXPONENT, expand, hoyt_law
@@ -156,7 +155,7 @@ class ClipPlayer:
         if self.leap_clip is not None:
             lm = self.leap_clip.motion
             self.leap_contacts = np.ascontiguousarray(
-                foot_contacts(ground_points(lm, self.leap_clip.toes), lm.fps), dtype=bool)
+                foot_contacts(lm.foot_positions(), lm.fps), dtype=bool)
         self._clips = {g: database.by_gait(g) for g in database.gaits}
         self._ranges = {g: (c[0].speed * SPEED_REACH[0], c[-1].speed * SPEED_REACH[1])
                         for g, c in self._clips.items()}
@@ -346,7 +345,7 @@ def start_transition(character: Character, clip1: Clip, clip2: Clip, phase: floa
     lt = leg_times(clip1, clip2, (n0 - 1) / clip1.frames)
     # on the ground: the foot phase, or the transition's foot at the ground; a lift of a
     # frame or two between two contacts (a leg switching clips) is no step
-    held = ground_points(m, clip1.toes)[..., 1] <= GROUND_BAND
+    held = m.foot_positions()[..., 1] <= GROUND_BAND
     on = (m.extras["foot_phase"] != FLIGHT) | held
     if planted is not None:
         on[f0] |= np.asarray(planted, dtype=bool)   # the frame before the first played one

@@ -26,7 +26,6 @@ import numpy as np
 
 from ..skeleton.motion import Motion
 from .database import Clip, cycle_stance
-from .legs import ground_points
 from .place_kernel import contact_rows, pack_contacts
 
 STANCE, STRIKING, FLIGHT = 0, 1, 2
@@ -43,7 +42,7 @@ def clip_stance_cycles(clip: Clip) -> list[np.ndarray]:
     """
     hit = _STANCE.get(clip)
     if hit is None:
-        hit = [s / clip.frames for s in cycle_stance(clip.motion, clip.speed, clip.toes)]
+        hit = [s / clip.frames for s in cycle_stance(clip.motion, clip.speed)]
         for s in hit:
             s.flags.writeable = False
         _STANCE[clip] = hit
@@ -73,8 +72,7 @@ def foot_phase(stance: np.ndarray) -> np.ndarray:
     return ph
 
 
-def root_from_feet(motion: Motion, stance: np.ndarray, v0: float,
-                   toes: bool = False) -> np.ndarray:
+def root_from_feet(motion: Motion, stance: np.ndarray, v0: float) -> np.ndarray:
     """Root positions (T, 3) moved by the landing feet (equation 11).
 
     Parameters
@@ -84,11 +82,9 @@ def root_from_feet(motion: Motion, stance: np.ndarray, v0: float,
     stance : ndarray of bool, shape (T, 4)
     v0 : float
         Forward speed (m/s) before the first frame, used until a foot lands.
-    toes : bool
-        Move it by the toe tips (feet that roll over them), else the foot joints.
     """
     T = len(motion)
-    feet = ground_points(motion, toes)
+    feet = motion.foot_positions()
     rel = feet - motion.root_positions[:, None, :]
     slip = -(rel[1:] - rel[:-1])                    # (T-1, 4, 3)
     both = stance[1:] & stance[:-1]

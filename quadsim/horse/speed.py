@@ -103,7 +103,7 @@ from ..skeleton.motion import Motion
 from .database import (Clip, SpeedLaw, contacts_from_stance, label_touchdowns, looped,
                        pin_cycle, sample_motion)
 from .root import clip_stance_cycles
-from .legs import ground_points, keep_foot_attitude, place_feet
+from .legs import keep_foot_attitude, place_feet
 
 #: Table 1 of the seed: ``Tc = a v^b``, v in :data:`SPEED_UNIT`, Tc in seconds.
 HOYT = {
@@ -148,10 +148,9 @@ def step_length(gait: str, speed) -> np.ndarray:
     return np.asarray(speed, dtype=float) * contact_time(gait, speed)
 
 
-def measure_contact_time(motion: Motion, skip: int = 0, toes: bool = False) -> np.ndarray:
-    """Median measured stance time of each foot (s), shape (4,), from frame ``skip`` on
-    (at the toe tips with ``toes``, :func:`~quadsim.horse.legs.ground_points`)."""
-    feet = ground_points(motion, toes)[skip:]
+def measure_contact_time(motion: Motion, skip: int = 0) -> np.ndarray:
+    """Median measured stance time of each foot (s), shape (4,), from frame ``skip`` on."""
+    feet = motion.foot_positions()[skip:]
     c = foot_contacts(feet, motion.fps)
     iv = stance_intervals(c, motion.fps, feet)
     out = np.full(4, np.nan)
@@ -166,7 +165,7 @@ def measure_contact_time(motion: Motion, skip: int = 0, toes: bool = False) -> n
 def clip_contact_time(clip: Clip) -> float:
     """Mean measured stance time of a looped clip's feet (s)."""
     m = looped(clip.motion, 3, clip.speed)
-    return float(np.nanmean(measure_contact_time(m, toes=clip.toes)))
+    return float(np.nanmean(measure_contact_time(m)))
 
 
 def _keep_straight_reach(character: Character, P: np.ndarray, tgt: np.ndarray) -> np.ndarray:
@@ -274,7 +273,7 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
     # the clip's contacts, warped: hold those feet still on the ground
     stance = [st * n1 for st in clip_stance_cycles(clip)]
     out = pin_cycle(character, out, speed, stance)
-    td = label_touchdowns(out, speed, clip.toes)
+    td = label_touchdowns(out, speed)
     return replace(clip, name=f"{clip.name}@{speed:g}", speed=float(speed), frames=n1,
                    touchdown=td, motion=out,
                    source=f"{clip.name} expanded to {speed:g} m/s (anchor {anchor}, "

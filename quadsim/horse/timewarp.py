@@ -59,7 +59,6 @@ from ..skeleton.contacts import foot_contacts
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from .database import Clip, sample_frames
-from .legs import rolls
 
 REFERENCE = 2  # LH
 TRANSITION_CYCLES = 2.5
@@ -283,7 +282,7 @@ def transition_motion(character: Character, clip1: Clip, clip2: Clip, *, t_start
                              in_stance(s2, np.repeat(t_post[:, None], 4, axis=1))])
     m = Motion(character.skeleton, fps, pos, rot, foot_joints=character.foot_joints)
     if root == "feet":
-        pos = root_from_feet(m, stance, clip1.speed, rolls(character))
+        pos = root_from_feet(m, stance, clip1.speed)
         m = Motion(character.skeleton, fps, pos, rot, foot_joints=character.foot_joints)
         if pin:
             m, stance = _pin_measured(character, m, stance)
@@ -326,13 +325,13 @@ def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int =
     stance : ndarray of bool, shape (T, 4)
         The contacts held.
     """
-    from .legs import ground_points, held_targets, place_feet, reach_drop
+    from .legs import place_feet, reach_drop, stance_targets
 
     held = np.asarray(stance, dtype=bool)
-    toes = rolls(character)
+    feet = motion.foot_positions()
     for _ in range(rounds):
         # where a held foot is out of the leg's reach, the root comes down
-        tgt = held_targets(motion, held, toes, anchor="touchdown", ramp=ramp, clear=True)
+        tgt = stance_targets(feet, held, anchor="touchdown", ramp=ramp, clear=True)
         drop = reach_drop(character, motion, tgt, held)
         lowered = motion
         if drop.any():
@@ -344,7 +343,7 @@ def _pin_measured(character, motion, stance, ramp: int = PIN_RAMP, rounds: int =
         # down with the root): the IK bends the legs instead
         out = Motion(motion.skeleton, motion.fps, lowered.root_positions,
                      place_feet(character, lowered, tgt), foot_joints=motion.foot_joints)
-        got = foot_contacts(ground_points(out, toes), motion.fps)
+        got = foot_contacts(out.foot_positions(), motion.fps)
         if not (got & ~held).any():
             break
         held = held | got

@@ -52,7 +52,6 @@ from quadsim.horse.database import (
     ClipDatabase,
     SpeedLaw,
 )
-from quadsim.horse.legs import rolls
 from quadsim.io.bvh import read_bvh
 from quadsim.skeleton.character import Character, characters_dir
 from quadsim.skeleton.motion import Motion
@@ -195,7 +194,7 @@ def _load_clip(name, entry, where, folder, character) -> Clip:
     motion = motion[:frames]
     return Clip(name, gait, float(speed), frames, np.array(tdf), lead, motion,
                 str(entry.get("source", "")), start_gait,
-                None if height is None else float(height), rolls(character))
+                None if height is None else float(height))
 
 
 def _retarget(raw: Motion, character: Character, where: str) -> Motion:

@@ -41,7 +41,6 @@ import numpy as np
 from quadsim.errors import InputError
 from quadsim.frames import LEGS
 from quadsim.horse.database import ASYMMETRIC, GAIT_ALIASES, SpeedLaw, cut_cycles
-from quadsim.horse.legs import ground_points, rolls
 from quadsim.horse.speed import DEFAULT_EXPONENT
 from quadsim.kinematics.rotations import (
     matrices_about_axis,
@@ -298,7 +297,7 @@ def measure_strides(motion: Motion, character: Character, take: str = "take") ->
     ends, is left out.
     """
     fps = motion.fps
-    feet = ground_points(motion, rolls(character))
+    feet = motion.foot_positions()
     tol = CONTACT_BAND * default_contact_thresholds(feet)[0]
     iv = stance_intervals(foot_contacts(feet, fps, tolerance=tol), fps, feet, tolerance=tol)
     iv = [s[np.isfinite(s).all(axis=1)] for s in iv]
@@ -375,7 +374,7 @@ def _cut_run(motion: Motion, run: list[Stride], character: Character, where: str
     a = max(int(math.floor((run[0].t0 - 0.5 * run[0].period) * fps)), 0)
     b = min(int(math.ceil((run[-1].t1 + 0.5 * run[-1].period) * fps)) + 1, len(motion))
     part = _facing_z(motion[a:b])
-    tol = CONTACT_BAND * default_contact_thresholds(ground_points(part, rolls(character)))[0]
+    tol = CONTACT_BAND * default_contact_thresholds(part.foot_positions())[0]
     cyc = cut_cycles(part, character=character, where=where, steady_tolerance=STEADY_TOLERANCE,
                      loop_tolerance_deg=LOOP_TOLERANCE_DEG, root_tolerance=ROOT_TOLERANCE,
                      contact_tolerance=tol)[0]
