@@ -13,6 +13,7 @@ and writes the clips and their ``manifest.toml`` into ``DIR``
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from quadsim.errors import InputError
@@ -47,6 +48,13 @@ def clips_from_command(args) -> int:
         raise InputError(f"`--smooth` {args.smooth!r}: give a Gaussian width in frames, "
                          "0 (none) to 10")
     character = load_character(args.character)
+    roll = float(character.locomotion.get("toe_roll_deg", 0.0))
+    if roll > 0.0:
+        print(f"quadsim: warning: {args.character}: its paws roll over their toe tips at "
+              f"push-off (toe_roll_deg = {roll:g}), and clips-from finds a take's contacts at "
+              "its foot joints, which rise through the last 60 % of such a stance: stances "
+              "read short and a walk may not be found (cut takes of flat-footed motion, or "
+              "a character whose toe_roll_deg is 0)", file=sys.stderr)
     takes = []
     for t in args.takes:
         p = Path(t)

@@ -268,3 +268,18 @@ def test_takes_at_other_frame_rates_join_the_first_takes(dog):
 def test_cut_database_with_no_takes_says_so(dog):
     with pytest.raises(InputError, match="no steady gait"):
         cut_database([], dog)
+
+
+def test_a_character_whose_paws_roll_is_warned_of(tmp_path, capsys):
+    """The leopard's paws roll over their toes at push-off, and clips-from finds contacts at
+    the foot joints, which rise through the roll: its own takes read short stances (cut
+    from a walk, trot and canter take, only the trot and canter were found). The command
+    says so on one warning line naming the key."""
+    leopard = load_character("leopard")
+    path = tmp_path / "leopard.bvh"
+    write_take(take(leopard, [("walk", 1.0), ("trot", 3.0), ("canter", 5.0)]), path)
+    assert main(["clips-from", str(path), "--character", "leopard",
+                 "--out", str(tmp_path / "clips")]) == 0
+    err = capsys.readouterr().err
+    warned = [line for line in err.splitlines() if line.startswith("quadsim: warning:")]
+    assert len(warned) == 1 and "toe_roll_deg = 50" in warned[0], err
