@@ -485,6 +485,10 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
     pytest.param(BASE + "\n[locomotion]\ntoe_roll_deg = 75.0\n",
                  r"locomotion\.toe_roll_deg = 75\.0 is out of range; allowed 0 <= .* <= 60",
                  id="toe-roll-past-60-degrees"),
+    pytest.param(BASE + "\n[locomotion]\ntoe_roll_deg = 30.0\n",
+                 r"locomotion\.toe_roll_deg = 30: a foot rolls over its toe tip, the end site "
+                 r"of its foot joint, .* not so for legs LF, RF, LH, RH: give each foot joint "
+                 r"an `end` ahead of it, or set toe_roll_deg = 0", id="toe-roll-without-toe-tips"),
     # geometry: zero-length bones
     pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.0, 0.0, 0.0]")),
                  r"joints\[7\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_knee' sits on its "

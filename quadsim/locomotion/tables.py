@@ -37,7 +37,7 @@ from quadsim.locomotion.cpg import TWO_PI
 from quadsim.locomotion.gaits import STAND, Gait, auto_gaits, gait_ids, gait_table, max_speed
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.transition import HYSTERESIS, gait_tables
-from quadsim.skeleton.character import Character
+from quadsim.skeleton.character import MIN_TOE_TIP, Character
 from quadsim.skeleton.fk import forward_kinematics
 
 #: Body drops (fractions of the pelvis height) at which each leg's reach is measured.
@@ -124,11 +124,6 @@ def measure_sweeps(character: Character, poser: Poser, drops: np.ndarray) -> np.
             out[d, i] = xs[bad[0] - 1] if len(bad) and bad[0] > 0 else (
                 0.0 if len(bad) else xs[-1])
     return out
-
-
-#: A foot pivots on its toe tip only when that is at least this far (m) ahead of
-#: its joint.
-MIN_TOE = 1e-3
 
 
 def toe_vectors(character: Character) -> np.ndarray:
@@ -315,7 +310,7 @@ def character_plan(character: Character) -> CharacterPlan:
     out = CharacterPlan(ch, poser, gaits, auto, ids, gait_tables([(gaits, auto)], ids), body,
                         np.ascontiguousarray(DROPS, dtype=float), sweep, foot_offset,
                         top_height, top_ahead, radius, flexion_lift(ch, tops), toe,
-                        np.where(toe[:, 0] > MIN_TOE, roll, 0.0))
+                        np.where(toe[:, 0] >= MIN_TOE_TIP, roll, 0.0))
     _PLANS[ch] = out
     return out
 

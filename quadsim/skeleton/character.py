@@ -478,6 +478,9 @@ GROUND_TOLERANCE = 1e-6
 #: Smallest bend of a leg's IK pair at rest, as a fraction of the pair's length:
 #: a straighter pair leaves the IK no room to shorten the leg or no fold direction.
 MIN_PAIR_BEND = 0.01
+#: The least distance (m) a foot's toe tip lies ahead of its joint for the foot to
+#: roll over it (:func:`_check_stance`).
+MIN_TOE_TIP = 1e-3
 
 
 def _check_stance(ch: Character, src: str) -> None:
@@ -492,6 +495,9 @@ def _check_stance(ch: Character, src: str) -> None:
       way ``bend`` says by at least ``MIN_PAIR_BEND`` of the pair's length.
     - The fore legs' IK joints are ahead (+Z) of the hind legs' (a positive
       body length, which the turning divides by).
+    - A character whose paws roll over their toes (``locomotion.toe_roll_deg``
+      above 0) gives each foot a toe tip (its end site) ahead of its joint, at
+      least ``MIN_TOE_TIP`` m: the roll pivots on it.
     """
     sk = ch.skeleton
     P = sk.rest_positions
@@ -532,3 +538,13 @@ def _check_stance(ch: Character, src: str) -> None:
     if not ch.body_length > 0.0:
         raise InputError(f"{src}: legs: the fore legs' IK joints must lie ahead (+Z) of the "
                          f"hind legs' at rest; body length {ch.body_length:.4g} m")
+    roll = float(ch.locomotion.get("toe_roll_deg", 0.0))
+    if roll > 0.0:
+        short = [leg.name for leg in ch.legs
+                 if not float(sk.end_sites.get(names[leg.foot], np.zeros(3))[2]) >= MIN_TOE_TIP]
+        if short:
+            raise InputError(
+                f"{src}: locomotion.toe_roll_deg = {roll:g}: a foot rolls over its toe tip, "
+                f"the end site of its foot joint, which must lie at least {MIN_TOE_TIP:g} m "
+                f"ahead (+Z) of it; not so for legs {', '.join(short)}: give each foot joint "
+                "an `end` ahead of it, or set toe_roll_deg = 0")
