@@ -26,7 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from quadsim.analysis.angular import angular_figures
-from quadsim.analysis.appearance import appearance_from_arrays, appearance_many, ground_points, toe_positions
+from quadsim.analysis.appearance import (appearance_from_arrays, appearance_many, ground_points,
+                                         toe_positions)
 from quadsim.analysis.report import feet_over_ground, report_from_arrays
 from quadsim.skeleton.anatomy import Anatomy, find_anatomy
 from quadsim.skeleton import contacts_many

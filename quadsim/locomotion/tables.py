@@ -37,7 +37,7 @@ from quadsim.locomotion.cpg import TWO_PI
 from quadsim.locomotion.gaits import STAND, Gait, auto_gaits, gait_ids, gait_table, max_speed
 from quadsim.locomotion.posing import Poser
 from quadsim.locomotion.transition import HYSTERESIS, gait_tables
-from quadsim.skeleton.character import MIN_TOE_TIP, Character
+from quadsim.skeleton.character import Character
 from quadsim.skeleton.fk import forward_kinematics
 
 #: Body drops (fractions of the pelvis height) at which each leg's reach is measured.
@@ -175,8 +175,8 @@ class CharacterPlan:
         up) (m) (:func:`toe_vectors`).
     roll : ndarray, shape (4,)
         How far each foot rolls over its toe tip by lift-off, toes down (rad):
-        ``[locomotion] toe_roll_deg``, none for a foot without a toe tip ahead
-        of its joint.
+        ``[locomotion] toe_roll_deg`` (a character file that sets it gives every
+        foot a toe tip ahead of its joint, :func:`~quadsim.skeleton.character.load_character`).
     """
 
     character: Character
@@ -310,7 +310,7 @@ def character_plan(character: Character) -> CharacterPlan:
     out = CharacterPlan(ch, poser, gaits, auto, ids, gait_tables([(gaits, auto)], ids), body,
                         np.ascontiguousarray(DROPS, dtype=float), sweep, foot_offset,
                         top_height, top_ahead, radius, flexion_lift(ch, tops), toe,
-                        np.where(toe[:, 0] >= MIN_TOE_TIP, roll, 0.0))
+                        np.full(4, roll))
     _PLANS[ch] = out
     return out
 
