@@ -449,6 +449,47 @@ def test_every_requested_gait_change_is_smooth_and_lands_in_the_new_gait(charact
     assert not failures, failures
 
 
+def swing_frames(motion) -> np.ndarray:
+    """How many frames each complete swing of a motion lasts: its toe tip above
+    1 mm, from leaving the ground to coming back (every foot's, one array)."""
+    up = motion.contact_points()[:, :, 1] > 1e-3  # (T, 4)
+    edges = np.diff(up.astype(int), axis=0)
+    out = []
+    for leg in range(4):
+        starts = np.flatnonzero(edges[:, leg] == 1)
+        ends = np.flatnonzero(edges[:, leg] == -1)
+        out += [int(ends[ends > s][0] - s) for s in starts if (ends > s).any()]
+    return np.array(out)
+
+
+#: The shortest swing through a gait change, over the shorter of the two gaits'
+#: steady swings (medians), at least.
+SWING_KEPT = 0.6
+
+
+@pytest.mark.parametrize("character", CHARACTERS)
+def test_a_gait_change_does_not_squeeze_the_swings(character):
+    """Every ordered pair, requested as the previous test does: no swing from half a
+    second before the request on is shorter than 0.6 of either gait's steady swing.
+    (The body ran on to the new gait's speed while the stance was still the old gait's,
+    its stride held short by the legs' sweep: the legs spun up, from 1.8 Hz in the
+    walk and 2.7 in the trot to 4.2 Hz, and the swings through a change from the walk
+    shrank to 0.38-0.45 of the gaits' own, wrists turning at up to 3,800 deg/s.)"""
+    ch = load_character(character)
+    table = gait_table(ch)
+    own = {g: float(np.median(swing_frames(steady(character, g)))) for g in table}
+    squeezed = []
+    for k, (a, b) in enumerate(_pairs(character)):
+        t_req = 4.0 + 0.137 * (k % 7)
+        script = Script((0.0, t_req), (Command(speed=table[a].preferred_speed, gait=a),
+                                       Command(speed=table[b].preferred_speed, gait=b)))
+        part = simulate(ch, script, t_req + 6.0, FPS).time_slice(t_req - 0.5, t_req + 6.0)
+        shortest = swing_frames(part).min() / min(own[a], own[b])
+        if shortest < SWING_KEPT:
+            squeezed.append((a, b, round(float(shortest), 2)))
+    assert not squeezed, squeezed
+
+
 # ------------------------------------------------------------------- turning
 @pytest.mark.parametrize("character", CHARACTERS)
 @pytest.mark.parametrize("gait", ["walk", "trot", "gallop"])

@@ -249,8 +249,19 @@ def stride_rows(body, reach, sc, state, scratch):
         margin = sc.reach_margin - BOUND_REACH_KEEP * p.bound[n]
         limit = 2.0 * margin * half / max(p.duty[n], MIN_DUTY)
         minv, coef = p.min_speed[n], p.stride_coefficient[n]
-        lam = min(stride_length(minv, coef, v, h), limit)
+        free = stride_length(minv, coef, v, h)
+        lam = min(free, limit)
         lam_min = min(stride_length(minv, coef, minv, h), limit)
+        if v > MOVING_SPEED and state.schedule.in_transition[n] and v > lam * max(
+                v / free, cpg.freq[n]):
+            # through a gait change the stance may still be the old gait's, its
+            # stride held short by the legs' sweep, while the speed runs on to
+            # the new gait's: the body waits for the stride to open, the stride
+            # frequency rising no higher than the stride law's or its own (the
+            # legs spun up to 4.2 Hz from 1.8 and 2.7 in a walk -> trot, swings
+            # squeezed to 5 frames of 11-14, wrists at 3,600 deg/s)
+            v = lam * max(v / free, cpg.freq[n])
+            state.motion.speed[n] = v
         if v > MOVING_SPEED:
             cpg.freq[n] = max(v / lam, minv / lam_min)
         else:
