@@ -175,6 +175,29 @@ def test_the_fast_gaits_path_keeps_the_slow_paths_shape(fast):
     assert np.all((peak >= 0.9) & (peak <= 1.2)) and p[:, 1:-1, 1].min() > 0
 
 
+@pytest.mark.parametrize("walk", [0.5, 1.0])
+def test_the_walks_path_peels_the_foot_off_nearly_straight_up(walk):
+    """Blended towards the walk's knots, a swing keeps the slow path's shape (lift-off
+    to touchdown, forwards all the way, clear of the ground by about its height), but a
+    sixteenth of the way into it the foot has covered under 0.4 of what the slow
+    path's has, fully the walk's (its foot left at 0.7-0.9 of the body's speed)."""
+    rng = np.random.default_rng(56)
+    a, b, h = random_level_steps(rng, 300)
+    np.testing.assert_array_equal(swing_position(a, b, h, np.zeros(300), 0.0, walk), a)
+    np.testing.assert_allclose(swing_position(a, b, h, np.ones(300), 0.0, walk), b, rtol=0,
+                               atol=1e-13)
+    s = np.broadcast_to(np.linspace(0.0, 1.0, 2001), (len(a), 2001))
+    p = swing_position(a[:, None], b[:, None], h[:, None], s, 0.0, walk) - a[:, None]
+    u = (b - a) / np.linalg.norm(b - a, axis=-1, keepdims=True)
+    assert np.all(np.diff(np.einsum("nmi,ni->nm", p, u), axis=1) > 0)
+    peak = p[..., 1].max(axis=1) / h
+    assert np.all((peak >= 0.9) & (peak <= 1.2)) and p[:, 1:-1, 1].min() > 0
+    early = np.einsum("ni,ni->n", swing_position(a, b, h, 1 / 16, 0.0, walk) - a, u)
+    slow = np.einsum("ni,ni->n", swing_position(a, b, h, 1 / 16) - a, u)
+    assert np.all(early > 0)
+    assert np.all(early < (1.0 - 0.6 * walk) * slow), (early / slow).max()
+
+
 def test_the_fast_gaits_path_eases_out_over_the_last_quarter():
     """An eighth of the swing before touchdown the fast gaits' foot still moves
     forward at about half its mean speed (the slow gaits' at a fifth: it has

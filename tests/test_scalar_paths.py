@@ -89,6 +89,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     theta_td = theta + np.linspace(-0.5, 3.0, n)[:, None] + rng.uniform(0, 0.2, (n, 4))
     theta_td = np.maximum(theta_td, theta_lo + 0.1)
     duty, final = rng.uniform(0.4, 0.7, n), rng.uniform(0.4, 0.7, n)
+    duty[1] = 0.575  # between the slow path and the walk's
     freq, v = rng.uniform(1, 3, n), rng.uniform(0.5, 5, n)
     w = np.full(n, yaw_rate)
     keys = rng.normal(0, 1, (n, 2, 3))
@@ -139,12 +140,15 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     target[..., 1] = 0.0
     step = np.linalg.norm(target - lf, axis=-1)
     height = np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
-    # the fast gaits' path from a duty factor of 0.6 down to 0.4 (the duties span it)
+    # the fast gaits' path from a duty factor of 0.6 down to 0.4, the walk's from
+    # 0.55 up to 0.6 (the duties span both)
     fast = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)[:, None]
+    walk = np.clip((duty - 0.55) / 0.05, 0.0, 1.0)[:, None]
     assert (fast == 0).any() and ((fast > 0) & (fast < 1)).any()
-    want = swing_position(lf, target, height, s, fast)
-    np.testing.assert_allclose(compiled_swing_position(lf, target, height, s, fast), want,
-                               atol=TOL)
+    assert (walk == 0).any() and (walk == 1).any() and ((walk > 0) & (walk < 1)).any()
+    want = swing_position(lf, target, height, s, fast, walk)
+    np.testing.assert_allclose(compiled_swing_position(lf, target, height, s, fast, walk),
+                               want, atol=TOL)
     kp2, kh2 = compiled_arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     np.testing.assert_allclose(kp2, kp, atol=1e-9)
     np.testing.assert_allclose(kh2, kh_new, atol=TOL)

@@ -42,9 +42,6 @@ KNOWN = {
     ("horse", "data", "peak_joint_speed_deg_s"): "2,903 deg/s (gallop -> canter); 20/30",
     ("leopard", "procedural", "touchdown_speed_ratio_p90"): "0.37 (pace -> walk); 28/30",
     ("horse", "data", "touchdown_speed_ratio_p90"): "0.40 (gallop -> walk); 26/30",
-    ("leopard", "procedural", "liftoff_speed_ratio_p90"): "0.75 (pace -> walk); 28/30",
-    ("leopard_cub", "procedural", "liftoff_speed_ratio_p90"): "0.85 (pace -> walk); 25/30",
-    ("dog_cub", "procedural", "liftoff_speed_ratio_p90"): "1.03 (pace -> walk); 25/30",
     ("horse", "data", "liftoff_speed_ratio_p90"): "0.65 (gallop -> amble); 27/30",
     ("horse", "data", "toe_below_ground_mm"): "3.1 mm (gallop -> amble); 29/30 (4.9 mm and "
                                               "23/30 before striking hooves were turned toe up)",

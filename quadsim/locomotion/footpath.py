@@ -90,6 +90,31 @@ SWING_KNOTS_FAST = np.array([
 #: fractions differ: the clearance is the slow path's.
 SLOW_DUTY, FAST_DUTY = 0.6, 0.4
 assert np.array_equal(SWING_KNOTS_FAST[:, 1], SWING_KNOTS[:, 1])
+#: The walk's path (duty factor :data:`SLOW_DUTY` and more) is the slow path but
+#: for its first quarter, which covers less of the step: the foot peels off the
+#: ground nearly straight up (on the slow path it left at 0.7-0.9 of the body's
+#: speed in the first frame of a walk's swing, the cubs' and the dog's at 60 fps;
+#: the bounding gaits keep the slow path's, their knees and elbows otherwise
+#: opening faster in mid-swing) ...
+SWING_KNOTS_WALK = np.array([
+    [0.12, 0.00],
+    [0.00, 0.00],
+    [0.12, 0.75],
+    [0.58, 1.00],
+    [0.93, 0.60],
+    [1.00, 0.00],
+    [0.93, 0.20],
+])
+#: ... taken fully from this duty factor, none below :data:`SLOW_DUTY` minus this.
+WALK_BLEND = 0.05
+assert np.array_equal(SWING_KNOTS_WALK[:, 1], SWING_KNOTS[:, 1])
+
+
+@njit(cache=True, inline="always")
+def walk_share(duty: float) -> float:
+    """How much of :data:`SWING_KNOTS_WALK` a swing takes in a gait of duty factor
+    ``duty``: 1 at :data:`SLOW_DUTY` and above, 0 at :data:`WALK_BLEND` below it."""
+    return min(max((duty - SLOW_DUTY + WALK_BLEND) / WALK_BLEND, 0.0), 1.0)
 
 
 @njit(cache=True, inline="always")
@@ -101,7 +126,8 @@ def fast_share(duty: float, bound: float) -> float:
 
 
 def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
-                         height: np.ndarray, fast: float = 0.0) -> np.ndarray:
+                         height: np.ndarray, fast: float = 0.0,
+                         walk: float = 0.0) -> np.ndarray:
     """Control points of a swing path, shape (..., 7, 3).
 
     The foot peels off the ground straight up, its forward speed rising from
@@ -118,11 +144,13 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
     liftoff, touchdown : array-like, shape (..., 3)
     height : array-like, shape (...)
         Clearance at mid-swing above the straight line between the two (m).
-    fast : float
-        The share of :data:`SWING_KNOTS_FAST` (:func:`fast_share`).
+    fast, walk : float
+        The shares of :data:`SWING_KNOTS_FAST` (:func:`fast_share`) and
+        :data:`SWING_KNOTS_WALK` (:func:`walk_share`).
     """
     knots = SWING_KNOTS.copy()
-    knots[:, 0] += fast * (SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0])
+    knots[:, 0] += fast * (SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0]) \
+        + walk * (SWING_KNOTS_WALK[:, 0] - SWING_KNOTS[:, 0])
     a = np.asarray(liftoff, dtype=float)
     b = np.asarray(touchdown, dtype=float)
     h = np.asarray(height, dtype=float)[..., None, None] * UP
@@ -130,34 +158,38 @@ def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
     return a[..., None, :] + knots[:, :1] * d + knots[:, 1:] * h
 
 
-def swing_position(liftoff, touchdown, height, s, fast=0.0) -> np.ndarray:
+def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0) -> np.ndarray:
     """Foot position along its swing path at progress ``s`` in [0, 1], shape (..., 3).
 
-    ``catmull_rom(swing_control_points(liftoff, touchdown, height, fast), s)``,
-    by the feet stage's own compiled :func:`swing_into`; ``fast`` (array-like,
-    broadcast with the rest) is the share of :data:`SWING_KNOTS_FAST`.
+    ``catmull_rom(swing_control_points(liftoff, touchdown, height, fast, walk), s)``,
+    by the feet stage's own compiled :func:`swing_into`; ``fast`` and ``walk``
+    (array-like, broadcast with the rest) are the shares of :data:`SWING_KNOTS_FAST`
+    and :data:`SWING_KNOTS_WALK`.
     """
     a = np.asarray(liftoff, dtype=float)
     b = np.asarray(touchdown, dtype=float)
     h = np.asarray(height, dtype=float)
     s = np.asarray(s, dtype=float)
     f = np.asarray(fast, dtype=float)
-    batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape, f.shape)
+    w = np.asarray(walk, dtype=float)
+    batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape, f.shape,
+                                w.shape)
 
     def rows(x, tail=()):
         return np.ascontiguousarray(np.broadcast_to(x, batch + tail)).reshape((-1,) + tail)
 
     out = np.empty((math.prod(batch), 1, 3))
-    _swing_rows(rows(a, (3,)), rows(b, (3,)), rows(h), rows(s), rows(f), out)
+    _swing_rows(rows(a, (3,)), rows(b, (3,)), rows(h), rows(s), rows(f), rows(w), out)
     return out.reshape(batch + (3,))
 
 
 @plan_inline
-def swing_into(a, b, height, s, fast, out, n, i):
+def swing_into(a, b, height, s, fast, walk, out, n, i):
     """The swing path from ``a`` to ``b`` (3-tuples, m) with clearance
     ``height`` (m) at progress ``s`` into ``out[n, i]`` (the knots
-    :data:`SWING_KNOTS` with the share ``fast`` of :data:`SWING_KNOTS_FAST`,
-    each of the four segments a quarter of the swing)."""
+    :data:`SWING_KNOTS` with the shares ``fast`` of :data:`SWING_KNOTS_FAST` and
+    ``walk`` of :data:`SWING_KNOTS_WALK`, each of the four segments a quarter of
+    the swing)."""
     x = min(max(s, 0.0), 1.0) * 4
     j = min(math.floor(x), 3)
     t = x - j
@@ -166,20 +198,21 @@ def swing_into(a, b, height, s, fast, out, n, i):
         ac = a[c]
         dc = b[c] - ac
         up = height if c == 1 else 0.0
-        p0 = ac + (_KNOTS[j, 0] + fast * _TURN[j]) * dc + _KNOTS[j, 1] * up
-        p1 = ac + (_KNOTS[j + 1, 0] + fast * _TURN[j + 1]) * dc + _KNOTS[j + 1, 1] * up
-        p2 = ac + (_KNOTS[j + 2, 0] + fast * _TURN[j + 2]) * dc + _KNOTS[j + 2, 1] * up
-        p3 = ac + (_KNOTS[j + 3, 0] + fast * _TURN[j + 3]) * dc + _KNOTS[j + 3, 1] * up
+        p0 = ac + (_KNOTS[j, 0] + fast * _TURN[j] + walk * _EASE[j]) * dc + _KNOTS[j, 1] * up
+        p1 = ac + (_KNOTS[j + 1, 0] + fast * _TURN[j + 1] + walk * _EASE[j + 1]) * dc + _KNOTS[j + 1, 1] * up
+        p2 = ac + (_KNOTS[j + 2, 0] + fast * _TURN[j + 2] + walk * _EASE[j + 2]) * dc + _KNOTS[j + 2, 1] * up
+        p3 = ac + (_KNOTS[j + 3, 0] + fast * _TURN[j + 3] + walk * _EASE[j + 3]) * dc + _KNOTS[j + 3, 1] * up
         out[n, i, c] = 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
                               + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
 
 
 @njit(cache=True)
-def _swing_rows(a, b, h, s, f, out):
+def _swing_rows(a, b, h, s, f, w, out):
     for n in range(a.shape[0]):
         swing_into((a[n, 0], a[n, 1], a[n, 2]), (b[n, 0], b[n, 1], b[n, 2]), h[n], s[n], f[n],
-                   out, n, 0)
+                   w[n], out, n, 0)
 
 
 _KNOTS = np.ascontiguousarray(SWING_KNOTS, dtype=float)
 _TURN = np.ascontiguousarray(SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0], dtype=float)
+_EASE = np.ascontiguousarray(SWING_KNOTS_WALK[:, 0] - SWING_KNOTS[:, 0], dtype=float)
