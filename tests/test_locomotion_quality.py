@@ -502,6 +502,36 @@ def test_a_gait_change_does_not_squeeze_the_swings(character):
     assert not squeezed, squeezed
 
 
+#: Slowing into a gait, the body's speed (the root's, over a quarter second) stays
+#: above this share of the new gait's.
+SPEED_KEPT = 0.85
+
+
+@pytest.mark.parametrize("character", CHARACTERS)
+def test_slowing_into_a_gait_does_not_sag_below_its_speed(character):
+    """Every ordered pair into a slower gait, requested as above: from the request on,
+    the body never runs below 0.85 of the new gait's speed. (A stance lasted as long as
+    the gait it was lifting in had it: a foot planted in the trot or gallop stayed down
+    for the walk's longer stance, and the body slowed to keep it in reach -- to 0.30-0.55
+    of the walk's speed before speeding up again -- its feet landing while moving.)"""
+    ch = load_character(character)
+    table = gait_table(ch)
+    quarter = round(0.25 * FPS)
+    sagged = []
+    for k, (a, b) in enumerate(_pairs(character)):
+        va, vb = table[a].preferred_speed, table[b].preferred_speed
+        if vb >= va:
+            continue
+        t_req = 4.0 + 0.137 * (k % 7)
+        script = Script((0.0, t_req), (Command(speed=va, gait=a), Command(speed=vb, gait=b)))
+        root = simulate(ch, script, t_req + 6.0, FPS).time_slice(t_req, t_req + 6.0)
+        step = np.linalg.norm(np.diff(root.root_positions[:, [0, 2]], axis=0), axis=1)
+        speed = np.convolve(step, np.ones(quarter) / quarter, mode="valid") * FPS
+        if speed.min() < SPEED_KEPT * vb:
+            sagged.append((a, b, round(float(speed.min() / vb), 2)))
+    assert not sagged, sagged
+
+
 # ------------------------------------------------------------------- turning
 @pytest.mark.parametrize("character", CHARACTERS)
 @pytest.mark.parametrize("gait", ["walk", "trot", "gallop"])

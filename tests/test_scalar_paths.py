@@ -105,7 +105,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     swing_s = np.zeros((n, 4))
     feet_state = B.FeetState(*(x.copy() for x in (stance, swing_s, theta_lo, theta_td, planted,
                                                    liftoff)), np.zeros((n, 4)), np.zeros((n, 4)),
-                            np.zeros((n, 4)))
+                            np.zeros((n, 4)), np.ones((n, 4)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
     params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
     state = B.PlanState(
@@ -133,7 +133,10 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     np.testing.assert_allclose(ss, s, atol=TOL)
     stance_time = np.maximum(duty, np.minimum(final, 1 - MIN_SWING)) / freq
     lead = np.minimum(0.5 * stance_time, 0.85 * half / np.maximum(v, 1e-6))
-    tau = np.maximum((td - theta) / (2 * np.pi * freq[:, None]) + lead[:, None] + 0.5 / 60, 0)
+    # the time to touchdown at each leg's own phase rate this step (at least half the
+    # clock's)
+    rate = np.maximum((theta - (theta - 0.1)) * 60, 0.5 * 2 * np.pi * freq[:, None])
+    tau = np.maximum((td - theta) / rate + lead[:, None] + 0.5 / 60, 0)
     girdle = np.array([1, 1, 0, 0])
     kp, kh_new = arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     target = kp + rotate_y(offset, kh_new)

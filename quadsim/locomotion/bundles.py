@@ -169,6 +169,7 @@ class FeetState(NamedTuple):
     yaw: np.ndarray       #: world yaw each foot keeps (rad): its landing heading in stance
     yaw_lo: np.ndarray    #: ... and had at its lift-off
     toe_lo: np.ndarray    #: each foot's pitch, toes down, at its lift-off (rad)
+    duty_td: np.ndarray   #: the duty factor of the gait each planted foot landed in
 
 
 class BodyState(NamedTuple):

@@ -116,22 +116,28 @@ def feet_rows(state, scratch, reach, sc, out):
     feet, fold = out.feet, out.fold
     for n in range(theta.shape[0]):
         dn = state.schedule.params.duty[n]
+        # a stance lasts no longer than the gait it landed in would have it (a body
+        # slowing into the walk slowed below it to keep the old gait's feet in reach,
+        # then sped up again; its feet landed moving); one stopping stands on them
+        own = math.inf if scratch.final_duty[n] > 1.0 - MIN_SWING else 1.0
         stance_time = max(dn, min(scratch.final_duty[n], 1.0 - MIN_SWING)) / freq[n]
         omega = TWO_PI * freq[n]
         for i in range(4):
             th = theta[n, i]
             if stance[n, i]:
                 u = frac(th / TWO_PI)
-                due = dn <= u <= 1.0 - MIN_SWING
+                d_own = min(dn, own * ft.duty_td[n, i])
+                due = d_own <= u <= 1.0 - MIN_SWING
                 if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > MIN_STANCE_PHASE:
                     stance[n, i] = False
                     # it leaves from where its heel has rolled to, its toe tip last
-                    a = toe_pitch((th - theta_td[n, i]) / (TWO_PI * dn), reach.roll[n, i], dn)
+                    a = toe_pitch((th - theta_td[n, i]) / (TWO_PI * d_own), reach.roll[n, i],
+                                  d_own)
                     ft.toe_lo[n, i] = a
                     pivot_on_toe(liftoff, n, i, planted[n, i, 0], planted[n, i, 1],
                                  planted[n, i, 2], ft.yaw[n, i], reach.toe, a)
                     ft.yaw_lo[n, i] = ft.yaw[n, i]
-                    cross = TWO_PI * (math.floor(th / TWO_PI) + dn)
+                    cross = TWO_PI * (math.floor(th / TWO_PI) + d_own)
                     theta_lo[n, i] = cross if due and cross > scratch.theta_prev[n, i] else th
                     td = TWO_PI * (math.floor(th / TWO_PI) + 1.0)
                     if td - th < TWO_PI * MIN_SWING:
@@ -151,8 +157,9 @@ def feet_rows(state, scratch, reach, sc, out):
             scratch.td_tau[n, i] = -1.0
             if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with,
                 # its toe tip put while the heel lifts
-                a = toe_pitch((theta[n, i] - theta_td[n, i]) / (TWO_PI * dn), reach.roll[n, i],
-                              dn)
+                d_own = min(dn, own * ft.duty_td[n, i])
+                a = toe_pitch((theta[n, i] - theta_td[n, i]) / (TWO_PI * d_own),
+                              reach.roll[n, i], d_own)
                 out.toe[n, i] = -a  # (the posing's toe pitch lifts the toes)
                 pivot_on_toe(feet, n, i, planted[n, i, 0], planted[n, i, 1], planted[n, i, 2],
                              ft.yaw[n, i], reach.toe, a)
@@ -172,7 +179,11 @@ def feet_rows(state, scratch, reach, sc, out):
             # the half frame by which a foot lands, on average, after its
             # planned instant (so the stance sits where it would at any frame
             # rate)
-            tau = max((theta_td[n, i] - theta[n, i]) / omega + lead + 0.5 * sc.dt, 0.0)
+            # (at the leg's own phase rate this step: re-phasing through a gait change
+            # its oscillator may run faster or slower than the clock, and timed by the
+            # clock the touchdown point moved back by up to 15 mm on the landing frame)
+            rate = max((theta[n, i] - scratch.theta_prev[n, i]) / sc.dt, 0.5 * omega)
+            tau = max((theta_td[n, i] - theta[n, i]) / rate + lead + 0.5 * sc.dt, 0.0)
             dx, dz, kh = arc_step(key_heading[n, g], v[n], yaw_rate[n], tau)
             cs, sn = math.cos(kh), math.sin(kh)
             ox, oz = foot_offset[n, i, 0], foot_offset[n, i, 2]
@@ -189,6 +200,7 @@ def feet_rows(state, scratch, reach, sc, out):
                 feet[n, i, 0], feet[n, i, 1], feet[n, i, 2] = tx, 0.0, tz
                 out.toe[n, i] = 0.0
                 stance[n, i] = True
+                ft.duty_td[n, i] = dn
                 continue
             # the foot's pitch turns from its lift-off roll back to level over the
             # swing, plus the swing's curl
@@ -198,7 +210,7 @@ def feet_rows(state, scratch, reach, sc, out):
             swing_into((ax, ay, az), (tx, 0.0, tz), height, s, fast, walk, feet, n, i)
             # how far the touchdown point will be from the leg's top joint then
             # (the body stage lowers the trunk ahead of a landing out of its reach)
-            t_td = max((theta_td[n, i] - theta[n, i]) / omega, 0.0)
+            t_td = max((theta_td[n, i] - theta[n, i]) / rate, 0.0)
             kx, kz, kh1 = arc_step(key_heading[n, g], v[n], yaw_rate[n], t_td)
             c1, s1 = math.cos(kh1), math.sin(kh1)
             ux = tx - (keys[n, g, 0] + kx + c1 * ox + s1 * reach.top_ahead[n, i])

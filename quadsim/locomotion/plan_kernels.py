@@ -170,8 +170,10 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             if not stance[n, i]:
                 continue
             u = frac(theta[n, i] / TWO_PI)
-            lifts = u < duty and 1.0 - MIN_SWING >= duty
-            t_lo = (duty - u if lifts else 1.0 - u + min(duty, 1.0 - MIN_SWING)) / freq[n]
+            # (the feet stage's lift-off: no later than the landing gait's, but stopping)
+            d_own = duty if cur == stand else min(duty, st.duty_td[n, i])
+            lifts = u < d_own and 1.0 - MIN_SWING >= d_own
+            t_lo = (d_own - u if lifts else 1.0 - u + min(d_own, 1.0 - MIN_SWING)) / freq[n]
             den = max(t_lo, dt)
             num = max(room[n, i], 0.0)
             if den == 0.0:
@@ -252,14 +254,16 @@ def stride_rows(body, reach, sc, state, scratch):
         free = stride_length(minv, coef, v, h)
         lam = min(free, limit)
         lam_min = min(stride_length(minv, coef, minv, h), limit)
-        if v > MOVING_SPEED and state.schedule.in_transition[n] and v > lam * max(
-                v / free, cpg.freq[n]):
+        if v > max(MOVING_SPEED, scratch.v_before[n]) and state.schedule.in_transition[n] \
+                and v > lam * max(v / free, cpg.freq[n]):
             # through a gait change the stance may still be the old gait's, its
-            # stride held short by the legs' sweep, while the speed runs on to
+            # stride held short by the legs' sweep, while the speed runs up to
             # the new gait's: the body waits for the stride to open, the stride
             # frequency rising no higher than the stride law's or its own (the
             # legs spun up to 4.2 Hz from 1.8 and 2.7 in a walk -> trot, swings
-            # squeezed to 5 frames of 11-14, wrists at 3,600 deg/s)
+            # squeezed to 5 frames of 11-14, wrists at 3,600 deg/s); slowing, it
+            # slows no faster than asked (held, the horse's trot -> amble sagged
+            # to 0.6 of the amble's speed)
             v = lam * max(v / free, cpg.freq[n])
             state.motion.speed[n] = v
         if v > MOVING_SPEED:

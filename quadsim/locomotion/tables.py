@@ -243,7 +243,7 @@ class CharacterPlan:
                           params),
             FeetState(np.ones((1, 4), dtype=bool), np.zeros((1, 4)), theta.copy(),
                       theta.copy(), feet[None].copy(), feet[None].copy(), np.zeros((1, 4)),
-                      np.zeros((1, 4)), np.zeros((1, 4))),
+                      np.zeros((1, 4)), np.zeros((1, 4)), np.ones((1, 4))),
             BodyState(np.zeros(1), np.zeros(1), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]),
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
