@@ -182,7 +182,8 @@ def feet_rows(state, scratch, reach, sc, out):
             # (at the leg's own phase rate this step: re-phasing through a gait change
             # its oscillator may run faster or slower than the clock, and timed by the
             # clock the touchdown point moved back by up to 15 mm on the landing frame)
-            rate = max((theta[n, i] - scratch.theta_prev[n, i]) / sc.dt, 0.5 * omega)
+            rate = omega if sc.dt <= 0.0 else max(
+                (theta[n, i] - scratch.theta_prev[n, i]) / sc.dt, 0.5 * omega)
             tau = max((theta_td[n, i] - theta[n, i]) / rate + lead + 0.5 * sc.dt, 0.0)
             dx, dz, kh = arc_step(key_heading[n, g], v[n], yaw_rate[n], tau)
             cs, sn = math.cos(kh), math.sin(kh)

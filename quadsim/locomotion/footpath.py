@@ -184,6 +184,13 @@ def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0) -> np.ndar
 
 
 @plan_inline
+def _knot(fast, walk, k):
+    """Knot ``k``'s forward fraction of the step, the shares ``fast`` and ``walk``
+    of the fast gaits' and the walk's knots taken."""
+    return _KNOTS[k, 0] + fast * _TURN[k] + walk * _EASE[k]
+
+
+@plan_inline
 def swing_into(a, b, height, s, fast, walk, out, n, i):
     """The swing path from ``a`` to ``b`` (3-tuples, m) with clearance
     ``height`` (m) at progress ``s`` into ``out[n, i]`` (the knots
@@ -198,10 +205,10 @@ def swing_into(a, b, height, s, fast, walk, out, n, i):
         ac = a[c]
         dc = b[c] - ac
         up = height if c == 1 else 0.0
-        p0 = ac + (_KNOTS[j, 0] + fast * _TURN[j] + walk * _EASE[j]) * dc + _KNOTS[j, 1] * up
-        p1 = ac + (_KNOTS[j + 1, 0] + fast * _TURN[j + 1] + walk * _EASE[j + 1]) * dc + _KNOTS[j + 1, 1] * up
-        p2 = ac + (_KNOTS[j + 2, 0] + fast * _TURN[j + 2] + walk * _EASE[j + 2]) * dc + _KNOTS[j + 2, 1] * up
-        p3 = ac + (_KNOTS[j + 3, 0] + fast * _TURN[j + 3] + walk * _EASE[j + 3]) * dc + _KNOTS[j + 3, 1] * up
+        p0 = ac + _knot(fast, walk, j) * dc + _KNOTS[j, 1] * up
+        p1 = ac + _knot(fast, walk, j + 1) * dc + _KNOTS[j + 1, 1] * up
+        p2 = ac + _knot(fast, walk, j + 2) * dc + _KNOTS[j + 2, 1] * up
+        p3 = ac + _knot(fast, walk, j + 3) * dc + _KNOTS[j + 3, 1] * up
         out[n, i, c] = 0.5 * ((2 * p1) + (-p0 + p2) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2
                               + (-p0 + 3 * p1 - 3 * p2 + p3) * t3)
 
