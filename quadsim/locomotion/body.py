@@ -83,12 +83,14 @@ STANCE_REACH = 0.97
 #: whole difference instead (30-110 mm; the pelvis's or withers' jolt 7-43 g in
 #: walk, trot and pace).
 LAND_ACCEL = 0.5 * GRAVITY
-#: Only the gaits that bound less than this are so guided, and only while a foot
-#: is down: the canter's and gallops' landings came out worse (the horse canter's
+#: Only the gaits that do not bound are so guided, and only while a foot is
+#: down: the canter's and gallops' landings came out worse (the horse canter's
 #: jolt 1.9 -> 9.8 g, its rotary gallop's peak joint speed 3,662 -> 4,663 deg/s),
 #: and a flight held under the cap no longer fell ballistically (the horse
-#: trot's flights at -0.15 g).
-LANDING_BOUND_BELOW = 0.5
+#: trot's flights at -0.15 g). Through a change between the two the guidance
+#: comes in and goes out with the bound (switched on at half of it, the cap
+#: dropped the horse's pelvis 206 mm in one frame of a canter -> trot).
+GUIDED_BELOW_BOUND = 1.0
 #: ... and no lower than a planted fore foot at this fraction of its leg's reach
 #: allows: the fore girdle lowered further pitched the trunk nose-down over the
 #: planted hind legs, whose stifles passed their limit (the horse's rack: 72
@@ -138,16 +140,14 @@ def smooth_min(a, b, k):
 
 
 @plan_inner
-def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt, guided):
+def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt):
     """How far (m) girdle ``g`` of row ``n`` may rise so that its swinging feet
     ``left``, ``right`` land within :data:`STANCE_REACH` of their legs' reach: the
     cap each touchdown point will set (its squared ground distance from the leg's
     top then, ``scratch.td_reach2``), raised by ``LAND_ACCEL tau^2 / 2`` for the
-    time ``tau`` left to it (``scratch.td_tau``); infinite with none swinging or
-    unless ``guided``. ``dropped``, ``flex`` and ``tilt`` as :func:`_reach_cap`."""
+    time ``tau`` left to it (``scratch.td_tau``); infinite with none swinging.
+    ``dropped``, ``flex`` and ``tilt`` as :func:`_reach_cap`."""
     cap = math.inf
-    if not guided:
-        return cap
     for i in (left, right):
         tau = scratch.td_tau[n, i]
         if ft.stance[n, i] or tau < 0.0:
@@ -276,15 +276,19 @@ def body_rows(body, state, scratch, reach, sc, out):
         dropped_h, dropped_f = pelvis * drops_now[n, 0], pelvis * drops_now[n, 1]
         # and no higher than its landing feet will let it be (LAND_ACCEL), the
         # fore girdle no lower for it than its planted feet allow (CROUCH_REACH)
-        guided = held and bound < LANDING_BOUND_BELOW
+        guided = max(1.0 - bound / GUIDED_BELOW_BOUND, 0.0) if held else 0.0
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
                               flex, 0.0)
         cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,
                                     dropped_f, flex, tilt_f)
-        rise_h = min(mid - half, cap_h, _landing_cap(
-            n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0, guided))
-        rise_f = min(mid + half, cap_f, max(floor_f, _landing_cap(
-            n, 1, 0, 1, state.feet, scratch, reach, dropped_f, flex, tilt_f, guided)))
+        rise_h = min(mid - half, cap_h)
+        rise_f = min(mid + half, cap_f)
+        if guided > 0.0:
+            land_h = _landing_cap(n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0)
+            land_f = max(floor_f, _landing_cap(n, 1, 0, 1, state.feet, scratch, reach,
+                                               dropped_f, flex, tilt_f))
+            rise_h -= guided * max(rise_h - land_h, 0.0)
+            rise_f -= guided * max(rise_f - land_f, 0.0)
         if rise_h < mid - half or rise_f < mid + half:
             # the planted legs hold the trunk down: its centre is where they let it
             # be (it would jump up by the whole cap at lift-off); its rate goes on
