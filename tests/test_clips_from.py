@@ -22,7 +22,7 @@ from quadsim.cli import main
 from quadsim.errors import InputError
 from quadsim.horse.speed import clip_contact_time
 from quadsim.io.clips import load_database
-from quadsim.io.takes import cut_database, fit_law, label_gait, read_take
+from quadsim.io.takes import Stride, cut_database, fit_law, label_gait, read_take, steady_runs
 from quadsim.skeleton.character import load_character
 from take_builders import noisy, on_other_skeleton, take, write_take
 
@@ -118,6 +118,19 @@ def test_the_fitted_laws_give_the_clips_contact_times(clean, dog):
         # 0.12 s stance is 7 frames at 60 fps: one frame is 14 % of it)
         miss = abs(float(law.contact_time(c.speed)) - tc)
         assert miss < max(0.12 * tc, 1.0 / c.motion.fps), (c.name, law, tc)
+
+
+def test_a_stride_off_the_runs_speed_by_more_than_5_percent_ends_the_run():
+    """Four canter strides of one period, the last 8 % faster (the stride into a
+    gallop's speed-up, its period still the canter's): the run is the first three; at
+    4 % faster the fourth stays in it."""
+    def strides(last_speed):
+        phase, duty = np.array([0.4, 0.7, 0.0, 0.8]), np.full(4, 0.35)
+        return [Stride("t", 0.3 * k, 0.3 * (k + 1), v, phase, duty, 0.1, "canter", "left", 0.0)
+                for k, v in enumerate([3.0, 3.0, 3.0, last_speed])]
+
+    assert [len(r) for r in steady_runs(strides(3.24))] == [3]
+    assert [len(r) for r in steady_runs(strides(3.12))] == [4]
 
 
 def test_fit_law_recovers_a_power_law_and_falls_back_over_one_speed():
