@@ -88,9 +88,9 @@ LAND_ACCEL = 0.5 * GRAVITY
 #: jolt 1.9 -> 9.8 g, its rotary gallop's peak joint speed 3,662 -> 4,663 deg/s),
 #: and a flight held under the cap no longer fell ballistically (the horse
 #: trot's flights at -0.15 g). Through a change between the two the guidance
-#: comes in and goes out with the bound (switched on at half of it, the cap
-#: dropped the horse's pelvis 206 mm in one frame of a canter -> trot).
-GUIDED_BELOW_BOUND = 1.0
+#: comes in and goes out with the bound, weighted by ``1 - bound`` (switched on
+#: at half of it, the cap dropped the horse's pelvis 206 mm in one frame of a
+#: canter -> trot).
 #: ... and no lower than a planted fore foot at this fraction of its leg's reach
 #: allows: the fore girdle lowered further pitched the trunk nose-down over the
 #: planted hind legs, whose stifles passed their limit (the horse's rack: 72
@@ -276,7 +276,7 @@ def body_rows(body, state, scratch, reach, sc, out):
         dropped_h, dropped_f = pelvis * drops_now[n, 0], pelvis * drops_now[n, 1]
         # and no higher than its landing feet will let it be (LAND_ACCEL), the
         # fore girdle no lower for it than its planted feet allow (CROUCH_REACH)
-        guided = max(1.0 - bound / GUIDED_BELOW_BOUND, 0.0) if held else 0.0
+        guided = 1.0 - bound if held else 0.0
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
                               flex, 0.0)
         cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,

@@ -58,6 +58,16 @@ ROLL_DUTY = 0.8
 
 
 @plan_inner
+def stance_duty(duty, landed_in, stopping):
+    """The duty factor a planted foot lifts at: the gait's ``duty`` now, but no later
+    than the gait it landed in (``landed_in``) would have it, unless the body is
+    ``stopping`` (its feet then stay down). Slowing into the walk, a foot planted in
+    the trot stayed down for the walk's longer stance, and the body slowed below the
+    walk's speed to keep it in reach (to 0.30-0.55 of it), its feet landing moving."""
+    return duty if stopping else min(duty, landed_in)
+
+
+@plan_inner
 def toe_pitch(p, roll, duty):
     """A planted foot's pitch, toes down (rad), ``p`` (0 to 1) into its stance in a
     gait of duty factor ``duty``: none until :data:`ROLL_FROM`, then ``roll`` times
@@ -116,17 +126,14 @@ def feet_rows(state, scratch, reach, sc, out):
     feet, fold = out.feet, out.fold
     for n in range(theta.shape[0]):
         dn = state.schedule.params.duty[n]
-        # a stance lasts no longer than the gait it landed in would have it (a body
-        # slowing into the walk slowed below it to keep the old gait's feet in reach,
-        # then sped up again; its feet landed moving); one stopping stands on them
-        own = math.inf if scratch.final_duty[n] > 1.0 - MIN_SWING else 1.0
+        stopping = scratch.final_duty[n] > 1.0 - MIN_SWING  # entering the standing state
         stance_time = max(dn, min(scratch.final_duty[n], 1.0 - MIN_SWING)) / freq[n]
         omega = TWO_PI * freq[n]
         for i in range(4):
             th = theta[n, i]
             if stance[n, i]:
                 u = frac(th / TWO_PI)
-                d_own = min(dn, own * ft.duty_td[n, i])
+                d_own = stance_duty(dn, ft.duty_td[n, i], stopping)
                 due = d_own <= u <= 1.0 - MIN_SWING
                 if (due or scratch.trailing[n, i]) and th - theta_td[n, i] > MIN_STANCE_PHASE:
                     stance[n, i] = False
@@ -157,7 +164,7 @@ def feet_rows(state, scratch, reach, sc, out):
             scratch.td_tau[n, i] = -1.0
             if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with,
                 # its toe tip put while the heel lifts
-                d_own = min(dn, own * ft.duty_td[n, i])
+                d_own = stance_duty(dn, ft.duty_td[n, i], stopping)
                 a = toe_pitch((theta[n, i] - theta_td[n, i]) / (TWO_PI * d_own),
                               reach.roll[n, i], d_own)
                 out.toe[n, i] = -a  # (the posing's toe pitch lifts the toes)

@@ -45,7 +45,7 @@ from quadsim.locomotion.bundles import (
     take_rows,
 )
 from quadsim.locomotion.cpg import TWO_PI, cpg_step_into
-from quadsim.locomotion.feet import feet_rows
+from quadsim.locomotion.feet import feet_rows, stance_duty
 from quadsim.locomotion.pose_kernel import (
     BEND_PITCH,
     BEND_YAW,
@@ -170,8 +170,7 @@ def speed_turn_rows(cmd, body, gaits, reach, sc, state, scratch, out):
             if not stance[n, i]:
                 continue
             u = frac(theta[n, i] / TWO_PI)
-            # (the feet stage's lift-off: no later than the landing gait's, but stopping)
-            d_own = duty if cur == stand else min(duty, st.duty_td[n, i])
+            d_own = stance_duty(duty, st.duty_td[n, i], cur == stand)  # (the feet stage's)
             lifts = u < d_own and 1.0 - MIN_SWING >= d_own
             t_lo = (d_own - u if lifts else 1.0 - u + min(d_own, 1.0 - MIN_SWING)) / freq[n]
             den = max(t_lo, dt)
