@@ -154,7 +154,8 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None):
 def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
               target: np.ndarray, fold: np.ndarray | float = 0.0,
               toe_pitch: np.ndarray | float = 0.0,
-              foot_yaw: np.ndarray | float | None = None) -> tuple[np.ndarray, np.ndarray]:
+              foot_yaw: np.ndarray | float | None = None,
+              load: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations that put a leg's foot joint on a target (and, if
     ``foot_yaw`` is given, the foot at that world yaw, rad).
 
@@ -173,6 +174,8 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
         Swing fold of the post bones, 0 (planted) to 1 (fully folded).
     toe_pitch : array-like, shape (...)
         Rotation of the toes/hoof from level (rad), positive tips them down.
+    load : array-like, shape (...)
+        Stance load over the body's weight: the digit bones turn by ``geom.sink`` times it.
 
     Returns
     -------
@@ -186,7 +189,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     Pp = np.asarray(parent_pos, dtype=float)
     tgt = np.asarray(target, dtype=float)
     batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1],
-                                np.shape(fold), np.shape(toe_pitch))
+                                np.shape(fold), np.shape(toe_pitch), np.shape(load))
     RpT = np.swapaxes(Rp, -1, -2)
     top = Pp + np.einsum("...ij,...j->...i", Rp, geom.top_offset)
     d = np.einsum("...ij,...j->...i", RpT, tgt - top)
@@ -218,11 +221,11 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
         qd = qd + L[..., k] * np.cos(phi[..., k])
         qf = qf + L[..., k] * np.sin(phi[..., k])
     # post bones: rest angle to the world vertical, turned with the leg, plus
-    # the swing fold
+    # the swing fold and the digit's sink under load
     fold = np.asarray(fold, dtype=float)
     for k in range(k0 + 2, n):
         phi[..., k] = (A0[..., k] + phi_down + geom.post_gain * swing
-                       + geom.fold[..., k] * fold)
+                       + geom.fold[..., k] * fold + geom.sink[..., k] * np.asarray(load))
     lift = None if foot_yaw is None else np.broadcast_to(
         np.minimum(fold / SWING_LIFT_FOLD, 1.0), batch)
     reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)

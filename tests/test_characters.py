@@ -240,7 +240,8 @@ def test_locomotion_table_reads_as_a_mapping_of_the_keys_given(name):
     assert loc["auto"] == loc.auto and loc.get("max_turn_rate_deg_s") == loc.max_turn_rate_deg_s
     assert set(loc) == {k for k in ("gaits", "auto", "max_turn_rate_deg_s", "spine_flex_deg",
                                     "spine_extend_deg", "spine_slow_scale",
-                                    "min_turn_radius_body_lengths", "head_nod_deg", "toe_roll_deg")
+                                    "min_turn_radius_body_lengths", "head_nod_deg", "toe_roll_deg",
+                                    "fetlock_sink_deg")
                         if getattr(loc, k) is not None}
     assert "min_turn_radius_body_lengths" not in loc
     assert loc.get("min_turn_radius_body_lengths", 1.0) == 1.0
@@ -489,6 +490,14 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
                  r"locomotion\.toe_roll_deg = 30: a foot rolls over its toe tip, the end site "
                  r"of its foot joint, .* not so for legs LF, RF, LH, RH: give each foot joint "
                  r"an `end` ahead of it, or set toe_roll_deg = 0", id="toe-roll-without-toe-tips"),
+    pytest.param(BASE + "\n[locomotion]\nfetlock_sink_deg = 50.0\n",
+                 r"locomotion\.fetlock_sink_deg = 50\.0 is out of range; allowed 0 <= .* <= 45",
+                 id="fetlock-sink-past-45-degrees"),
+    pytest.param(BASE + "\n[locomotion]\nfetlock_sink_deg = 20.0\n",
+                 r"locomotion\.fetlock_sink_deg = 20: a leg's digit .* every leg needs at least "
+                 r"two bones below its pair; legs LF, RF, LH, RH have fewer: give them a digit "
+                 r"\(fetlock -> pastern -> hoof\) or set fetlock_sink_deg = 0",
+                 id="fetlock-sink-without-a-digit"),
     # geometry: zero-length bones
     pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.0, 0.0, 0.0]")),
                  r"joints\[7\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_knee' sits on its "

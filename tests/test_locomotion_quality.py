@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 import warnings
+from dataclasses import replace
 from functools import cache
 
 import numpy as np
@@ -125,6 +126,67 @@ def test_paws_roll_over_their_planted_toe_tips_at_push_off(character, gait):
         tip = tips[a:b, leg]
         assert np.abs(tip[:, 1]).max() < 1e-4
         assert np.linalg.norm(tip - tip[0], axis=-1).max() < 1e-4
+
+
+def _fetlock_sinks(motion, character):
+    """Per complete stance of every leg (at the toe tips): how far (m) the fetlock
+    (the joint above the digit) comes down below its touchdown height, where in the
+    stance (0 to 1) it is lowest, how far (deg) the digit (fetlock to hoof joint)
+    lies flatter there than at touchdown, and whether the fetlock is back above its
+    touchdown height at lift-off."""
+    P = motion.world_positions()
+    contacts = M.foot_contacts(motion.contact_points(), motion.fps)
+    out = []
+    for i, leg in enumerate(character.legs):
+        f, h = leg.chain[leg.ik_start + 3], leg.chain[-1]
+        d = P[:, f] - P[:, h]
+        slope = np.degrees(np.arctan2(d[:, 1], np.linalg.norm(d[:, [0, 2]], axis=-1)))
+        for a, b in M.contact_intervals(contacts)[i]:
+            if a < 1 or b >= len(contacts):
+                continue
+            y = P[a:b, f, 1]
+            k = int(np.argmin(y))
+            out.append((y[0] - y[k], k / (b - a), slope[a] - slope[a + k], y[-1] > y[0]))
+    return np.array(out)
+
+
+#: Least sink per stance (m, deg) by gait: the load a leg bears peaks at about
+#: pi / (8 duty) of the body's weight (feet.stance_load), the trot's 1.0, the
+#: gallops' 1.6; the horse's pasterns turn 25 degrees at the body's weight.
+FETLOCK_SINK = {"trot": (0.02, 5.0), "canter": (0.03, 8.0), "transverse_gallop": (0.05, 12.0),
+                "rotary_gallop": (0.05, 12.0)}
+
+
+@pytest.mark.parametrize("gait", list(FETLOCK_SINK))
+def test_the_horses_fetlocks_sink_under_load_and_recover_by_lift_off(gait):
+    """GAITS.md: the fetlock sinks (hyperextends) under load at mid-stance and
+    recovers before lift-off. From the joints' world positions, in every stance of
+    the horse's trot, canter and gallops: the fetlock comes down below where it
+    landed (2 cm in the trot, 5 cm in the gallops), lowest between a fifth and
+    three fifths of the way through the stance, its digit lying flatter there than
+    at touchdown (5 and 12 degrees), and is back above its touchdown height by the
+    stance's last frame (the leg swept back)."""
+    m = steady("horse", gait)
+    r = _fetlock_sinks(m, load_character("horse"))
+    drop, angle = FETLOCK_SINK[gait]
+    assert len(r) >= 12
+    assert r[:, 0].min() >= drop, r[:, 0].min()
+    assert 0.2 <= r[:, 1].min() and r[:, 1].max() <= 0.6, r[:, 1]
+    assert r[:, 2].min() >= angle, r[:, 2].min()
+    assert r[:, 3].all()
+
+
+def test_without_a_fetlock_sink_the_fetlock_rises_from_touchdown():
+    """The measure above can fail: the horse without ``fetlock_sink_deg`` trots with
+    each fetlock lowest on its touchdown frame, rising through the stance as its leg
+    sweeps back (what the issue saw)."""
+    ch = load_character("horse")
+    ch = replace(ch, locomotion=replace(ch.locomotion, fetlock_sink_deg=None))
+    g = gait_table(ch)["trot"]
+    m = simulate(ch, Command(speed=g.preferred_speed, gait="trot"), 8.0, FPS).time_slice(3.0, 9.0)
+    r = _fetlock_sinks(m, ch)
+    assert len(r) >= 8
+    assert np.abs(r[:, 0]).max() < 1e-3 and (r[:, 1] == 0).all()
 
 
 @pytest.mark.parametrize("character", ["dog_cub", "horse"])

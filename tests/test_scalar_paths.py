@@ -175,7 +175,8 @@ def _random_plan(ch, rng, T):
             "heading": rng.uniform(-3, 3, T), "pitch": rng.normal(0, 0.05, T),
             "sway": rng.normal(0, 0.03, (T, 2)), "bend_yaw": rng.normal(0, 0.2, T),
             "bend_pitch": rng.normal(0, 0.1, T), "feet": feet, "fold": rng.uniform(0, 1, (T, 4)),
-            "toe": rng.uniform(0, 0.3, (T, 4)), "tail": rng.normal(0, 0.1, (T, len(ch.tail), 2)),
+            "toe": rng.uniform(0, 0.3, (T, 4)), "load": rng.uniform(0, 2, (T, 4)),
+            "tail": rng.normal(0, 0.1, (T, len(ch.tail), 2)),
             "look": rng.normal(0, 0.1, T)}
 
 
@@ -211,7 +212,8 @@ def _reference_pose(ch, poser, plan):
             plan["heading"] + (plan["bend_yaw"] if i < 2 else 0.0)
         L[:, geom.chain], err[:, i] = solve_leg(geom, G[:, geom.parent], P[:, geom.parent],
                                                 plan["feet"][:, i], plan["fold"][:, i],
-                                                plan["toe"][:, i], foot_yaw=yaw)
+                                                plan["toe"][:, i], foot_yaw=yaw,
+                                                load=plan["load"][:, i])
     _, P = forward_kinematics(sk, L, plan["root"])
     return L, P, err
 

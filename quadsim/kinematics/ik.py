@@ -16,7 +16,8 @@ is solved as
 * **post** bones (metatarsus, cannon, pastern, hoof): at their rest angle
   to the *world* vertical, turned with the leg by a fraction of its swing
   angle (the heel rises as the leg sweeps back), plus a fold while the foot
-  is in swing.
+  is in swing; the digit (the post bones below the first: a horse's pasterns)
+  turns towards the ground under the stance's load (the fetlock sinks).
 
 Reachable targets are reached exactly; so is a foot joint's world yaw, the
 foot held level, when the posing asks for it (:func:`leg_rows`). An
@@ -98,6 +99,10 @@ class LegGeometry:
         +1 if the pair's middle joint points forward, -1 if back.
     fold : ndarray, shape (n,)
         In-plane angle added to each post bone at full swing fold (rad).
+    sink : ndarray, shape (n,)
+        In-plane angle added to each digit bone (the post bones below the
+        first) under a load of the body's weight (rad): ``[locomotion]
+        fetlock_sink_deg``, towards the ground; 0 elsewhere.
     pre_gain : float
         Fraction of the leg's swing angle taken by each pre bone.
     post_gain : float
@@ -120,6 +125,7 @@ class LegGeometry:
     pair: int
     bend: float
     fold: np.ndarray
+    sink: np.ndarray
     pre_gain: float
     post_gain: float
     toe_angle: float
@@ -145,7 +151,10 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     The fold direction of each post bone comes from the character's joint
     limits: a joint folds towards the side of its larger flexion range (a
     hock folds its metatarsus forward, a carpus its cannon back), by
-    ``fold_fraction`` of that range, capped at 75 degrees.
+    ``fold_fraction`` of that range, capped at 75 degrees. The digit bones
+    (the post bones below the first) sink by the character's
+    ``[locomotion] fetlock_sink_deg``, forward (their lower ends turn
+    towards the ground ahead of the fetlock).
     """
     sk = character.skeleton
     chain = np.asarray(leg.chain)
@@ -167,6 +176,9 @@ def leg_geometry(character: Character, leg: LegSpec, *,
         # positive rotation about +X swings the bone backwards: angle -= theta
         big = hi if abs(hi) >= abs(lo) else lo
         fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, MAX_FOLD)
+    sink = np.zeros(n)
+    sink[leg.ik_start + 3:] = math.radians(float(character.locomotion.get("fetlock_sink_deg",
+                                                                           0.0)))
     foot = sk.names[chain[-1]]
     end = sk.end_sites.get(foot, np.array([0.0, 0.0, 1.0]))
     toe = float(np.arctan2(end[2], -end[1]))
@@ -180,7 +192,7 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     return LegGeometry(
         chain=chain, parent=int(sk.parents[chain[0]]), top_offset=sk.offsets[chain[0]].copy(),
         lengths=lengths, rest_angles=rest, pair=leg.ik_start, bend=leg.bend, fold=fold,
-        pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe,
+        sink=sink, pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe,
         rest_leg_angle=float(np.arctan2(rel[2], -rel[1])), lower=lower, upper=upper,
     )
 
@@ -199,15 +211,15 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     ``leg_int`` (L, 4 + n_max + 1) holds the number of bones n, the pair's
     upper bone, the top joint's parent, whether the post joints are limited
     (0/1) and the chain's joint indices; ``leg_top`` (L, 3) the top joint's
-    offset (m); ``leg_bones`` (L, 7, n_max) the bone lengths (m), rest
-    angles, full-fold angles, lower and upper flexion limits (rad) and the
-    rest angles' cosines and sines; ``leg_scal`` (L, 5) the bend sign, pre
+    offset (m); ``leg_bones`` (L, 8, n_max) the bone lengths (m), rest
+    angles, full-fold angles, lower and upper flexion limits (rad), the
+    rest angles' cosines and sines and the full-load sink angles (rad); ``leg_scal`` (L, 5) the bend sign, pre
     and post gains, toe angle and rest leg angle (rad).
     """
     n_max = max(g.n_bones for g in legs)
     leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
     leg_top = np.zeros((len(legs), 3))
-    leg_bones = np.zeros((len(legs), 7, n_max))
+    leg_bones = np.zeros((len(legs), 8, n_max))
     leg_scal = np.zeros((len(legs), 5))
     for i, g in enumerate(legs):
         n = g.n_bones
@@ -215,7 +227,7 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         leg_int[i, 4:4 + n + 1] = g.chain
         leg_top[i] = g.top_offset
         for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
-                                 np.cos(g.rest_angles), np.sin(g.rest_angles))):
+                                 np.cos(g.rest_angles), np.sin(g.rest_angles), g.sink)):
             leg_bones[i, r, :n] = arr
         leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
     return leg_int, leg_top, leg_bones, leg_scal
@@ -345,10 +357,11 @@ def _direction(x, y, h):
 def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
     """The legs' IK, compiled: each leg of ``legs`` (:func:`pack_legs`) in
     rows ``a`` to ``b``, from its parent's world frame ``G[t - a, p]`` (3, 3)
-    and position ``positions[t, p]`` (m), to the target, swing fold and toe
-    pitch in the columns ``cols = [target, fold, toe, heading, bend]`` (int array)
-    of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``, ``toe + i``,
-    ``heading + i``, the world yaw the foot keeps; ``bend`` is not read):
+    and position ``positions[t, p]`` (m), to the target, swing fold, toe
+    pitch and stance load in the columns ``cols = [target, fold, toe, heading, load]``
+    (int array) of ``plan[t]`` (leg ``i`` at ``target + 3 i``, ``fold + i``,
+    ``toe + i``, ``heading + i``, the world yaw the foot keeps, and ``load + i``, the
+    load over the body's weight its digit sinks under; -1: none):
     writes the chains' local rotations ``local[t, j]`` and the misses
     ``err[t, i]`` (m); ``work`` (3, n_max) is its scratch (any values). If
     ``heading >= 0`` each foot keeps the world yaw its column gives and stays
@@ -366,7 +379,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
     a pass that does (the joint limits rarely bind in a stride).
     """
     leg_int, leg_top, leg_bones, leg_scal = legs
-    FEET, FOLD, TOE, HEAD, BEND = cols[0], cols[1], cols[2], cols[3], cols[4]
+    FEET, FOLD, TOE, HEAD, LOAD = cols[0], cols[1], cols[2], cols[3], cols[4]
     phi, cphi, sphi = work[0], work[1], work[2]
     for t in range(a, b):
         g = t - a
@@ -417,9 +430,11 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                 sphi[k] = math.sin(ang)
                 qd = qd + leg_bones[i, 0, k] * cphi[k]
                 qf = qf + leg_bones[i, 0, k] * sphi[k]
-            for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded
+            load = plan[t, LOAD + i] if LOAD >= 0 else 0.0
+            for k in range(k0 + 2, n):  # post bones: to the world vertical, turned, folded,
+                # the digit sunk under its load
                 ang = leg_bones[i, 1, k] + phi_down + post_gain * swing \
-                    + leg_bones[i, 2, k] * plan[t, FOLD + i]
+                    + leg_bones[i, 2, k] * plan[t, FOLD + i] + leg_bones[i, 7, k] * load
                 phi[k] = ang
                 cphi[k] = math.cos(ang)
                 sphi[k] = math.sin(ang)
@@ -516,7 +531,8 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
 
 def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
               target: np.ndarray, fold: np.ndarray | float = 0.0,
-              toe_pitch: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+              toe_pitch: np.ndarray | float = 0.0,
+              load: np.ndarray | float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Local rotations that put a leg's foot joint on a target
     (:func:`leg_rows`, the posing's own kernel, for arrays of any batch shape).
 
@@ -533,6 +549,8 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
         Swing fold of the post bones, 0 (planted) to 1 (fully folded).
     toe_pitch : array-like, shape (...)
         Rotation of the toes/hoof from level (rad), positive tips them down.
+    load : array-like, shape (...)
+        Stance load over the body's weight: the digit sinks by ``geom.sink`` times it.
 
     Returns
     -------
@@ -547,8 +565,9 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     tgt = np.asarray(target, dtype=float)
     fold = np.asarray(fold, dtype=float)
     toe = np.asarray(toe_pitch, dtype=float)
+    load = np.asarray(load, dtype=float)
     batch = np.broadcast_shapes(Rp.shape[:-2], Pp.shape[:-1], tgt.shape[:-1], fold.shape,
-                                toe.shape)
+                                toe.shape, load.shape)
     M = math.prod(batch)
     n = geom.n_bones
     # the chain as joints 0..n, its parent n + 1: the kernel's arrays stay small
@@ -558,10 +577,11 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
     G[:, n + 1] = np.broadcast_to(Rp, batch + (3, 3)).reshape(M, 3, 3)
     P = np.zeros((M, J, 3))
     P[:, n + 1] = np.broadcast_to(Pp, batch + (3,)).reshape(M, 3)
-    plan = np.zeros((M, 5))
+    plan = np.zeros((M, 6))
     plan[:, 0:3] = np.broadcast_to(tgt, batch + (3,)).reshape(M, 3)
     plan[:, 3] = np.broadcast_to(fold, batch).reshape(M)
     plan[:, 4] = np.broadcast_to(toe, batch).reshape(M)
+    plan[:, 5] = np.broadcast_to(load, batch).reshape(M)
     local = np.empty((M, J, 3, 3))
     err = np.empty((M, 1))
     _solve_rows(plan, legs, G, P, local, err)
@@ -571,7 +591,7 @@ def solve_leg(geom: LegGeometry, parent_rot: np.ndarray, parent_pos: np.ndarray,
 @njit(cache=True)
 def _solve_rows(plan, legs, G, P, local, err):
     work = np.empty((3, legs[2].shape[2]))
-    leg_rows(plan, np.array([0, 3, 4, -1, -1]), np.int64(0), plan.shape[0], legs, G, P, local, err,
+    leg_rows(plan, np.array([0, 3, 4, -1, 5]), np.int64(0), plan.shape[0], legs, G, P, local, err,
              work)
 
 

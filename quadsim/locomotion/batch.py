@@ -245,7 +245,7 @@ class BatchController:
             ``heading``, ``pitch``, ``bend_yaw``, ``bend_pitch``, ``look``,
             ``spine``, ``heading_rate`` (N,) (rad, rad/s), ``speed`` (N,) (m/s),
             ``duty`` (N,), ``sway`` (N, 2), ``feet`` (N, 4, 3) (m), ``fold``,
-            ``toe`` and ``phase`` (N, 4), ``contacts`` (N, 4) bool, ``tail``
+            ``toe``, ``load`` and ``phase`` (N, 4), ``contacts`` (N, 4) bool, ``tail``
             (N, T_max, 2) (rad, zero-padded), ``amplitude`` (N, 5) and ``gait``
             (N,) gait ids. With ``pose=True`` also ``local_rotations``,
             ``positions`` and ``ik_error``: lists with one array per entry of
@@ -357,7 +357,8 @@ class BatchController:
         return {
             "root": root, "heading": mo.heading.copy(), "pitch": out.pitch, "sway": out.sway,
             "bend_yaw": bend, "bend_pitch": spine, "feet": out.feet,
-            "fold": out.fold, "toe": out.toe.copy(), "tail": bs.tail.copy(),
+            "fold": out.fold, "toe": out.toe.copy(), "load": out.load.copy(),
+            "tail": bs.tail.copy(),
             "look": LOOK_PER_BEND * bend, "foot_yaw": st.feet.yaw.copy(),
             "contacts": st.feet.stance.copy(),
             "gait": st.schedule.current.copy(), "phase": out.phase, "speed": mo.speed.copy(),

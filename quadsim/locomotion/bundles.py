@@ -227,6 +227,7 @@ class PlanOutputs(NamedTuple):
     feet: np.ndarray             #: (N, 4, 3) foot targets (m)
     fold: np.ndarray             #: (N, 4) swing fold 0..1
     toe: np.ndarray              #: (N, 4) each foot's pitch, toes down (rad)
+    load: np.ndarray             #: (N, 4) stance load over the body's weight (0 in swing)
     pitch: np.ndarray            #: (N,) whole-body pitch (rad)
     sway: np.ndarray             #: (N, 2) hind and fore girdle sway (rad)
     phase: np.ndarray            #: (N, 4) stride fractions
@@ -256,7 +257,8 @@ def step_scratch(n: int) -> StepScratch:
 
 def plan_outputs(n: int, packed_columns: int = 0) -> PlanOutputs:
     """An empty :class:`PlanOutputs` of ``n`` rows (``packed_columns``: 0 packs nothing)."""
-    return PlanOutputs(np.empty((n, 4, 3)), np.empty((n, 4)), np.empty((n, 4)), np.empty(n),
+    return PlanOutputs(np.empty((n, 4, 3)), np.empty((n, 4)), np.empty((n, 4)),
+                       np.zeros((n, 4)), np.empty(n),
                        np.empty((n, 2)),
                        np.empty((n, 4)), np.empty((n, packed_columns)),
                        np.zeros(n, dtype=np.bool_), np.zeros(n, dtype=np.bool_),

@@ -311,7 +311,7 @@ class ProceduralController:
         dict
             Arrays: ``root`` (3,) (m), ``heading``, ``pitch``, ``bend_yaw``,
             ``bend_pitch``, ``look``, ``spine`` (rad), ``sway`` (2,), ``feet``
-            (4, 3) (m), ``fold``, ``toe``, ``phase`` (4,), ``contacts`` (4,)
+            (4, 3) (m), ``fold``, ``toe``, ``load``, ``phase`` (4,), ``contacts`` (4,)
             bool, ``tail`` (n_tail, 2), ``speed`` (m/s), ``duty``,
             ``heading_rate`` (rad/s), ``amplitude`` (5,); and ``gait`` (label).
         """
@@ -329,6 +329,7 @@ class ProceduralController:
             "heading": mo.heading.item(0), "pitch": out.pitch.item(0),
             "sway": out.sway[0].copy(), "bend_yaw": bend, "bend_pitch": spine,
             "feet": out.feet[0].copy(), "fold": fold, "toe": out.toe[0].copy(),
+            "load": out.load[0].copy(),
             "tail": bs.tail[0].copy(), "look": LOOK_PER_BEND * bend,
             "foot_yaw": st.feet.yaw[0].copy(),
             "contacts": st.feet.stance[0].copy(), "gait": self._label,

@@ -55,6 +55,8 @@ ROLL_FROM = 0.4
 #: (``1 - MIN_SWING``: standing), faded out in between, so a character that
 #: stops comes onto flat feet (it stood on tiptoe, its heels 38-46 mm up).
 ROLL_DUTY = 0.8
+#: A planted foot's load (:func:`stance_load`) takes the duty factor as at least this.
+MIN_LOAD_DUTY = 0.1
 
 
 @plan_inner
@@ -78,6 +80,18 @@ def toe_pitch(p, roll, duty):
         return 0.0
     e = min((p - ROLL_FROM) / (1.0 - ROLL_FROM), 1.0)
     return fade * roll * e * e
+
+
+@plan_inner
+def stance_load(p, duty):
+    """A planted foot's load over the body's weight, ``p`` (0 to 1) into its stance
+    in a gait of duty factor ``duty``: ``sin^2(pi p)`` times ``pi / (8 duty)``, the
+    peak of a half sine of force over the stance that carries a quarter of the
+    weight over a stride (a walk's 0.65, a trot's 1.0, a gallop's 1.6). Its rate
+    starts and ends at zero, so a digit sunk under it (``[locomotion]
+    fetlock_sink_deg``) turns smoothly from the swing's pose and back to it."""
+    s = math.sin(math.pi * min(max(p, 0.0), 1.0))
+    return math.pi / (8.0 * max(duty, MIN_LOAD_DUTY)) * s * s
 
 
 @plan_inner
@@ -114,7 +128,8 @@ def feet_rows(state, scratch, reach, sc, out):
     sc : StepConstants
         ``reach_margin`` and ``dt``.
     out : PlanOutputs
-        Receives ``feet`` (N, 4, 3) foot positions (m) and ``fold`` (N, 4).
+        Receives ``feet`` (N, 4, 3) foot positions (m), ``fold`` (N, 4) and the
+        planted feet's ``load`` (N, 4) (:func:`stance_load`).
     """
     theta, freq = state.cpg.theta, state.cpg.freq
     v, yaw_rate = state.motion.speed, state.motion.yaw_rate
@@ -161,12 +176,14 @@ def feet_rows(state, scratch, reach, sc, out):
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
             fold[n, i] = 0.0
+            out.load[n, i] = 0.0
             scratch.td_tau[n, i] = -1.0
             if stance[n, i]:  # a planted foot keeps its place and the yaw it landed with,
-                # its toe tip put while the heel lifts
+                # its toe tip put while the heel lifts, its digit sinking under the load
                 d_own = stance_duty(dn, ft.duty_td[n, i], stopping)
-                a = toe_pitch((theta[n, i] - theta_td[n, i]) / (TWO_PI * d_own),
-                              reach.roll[n, i], d_own)
+                p = (theta[n, i] - theta_td[n, i]) / (TWO_PI * d_own)
+                a = toe_pitch(p, reach.roll[n, i], d_own)
+                out.load[n, i] = stance_load(p, d_own)
                 out.toe[n, i] = -a  # (the posing's toe pitch lifts the toes)
                 pivot_on_toe(feet, n, i, planted[n, i, 0], planted[n, i, 1], planted[n, i, 2],
                              ft.yaw[n, i], reach.toe, a)

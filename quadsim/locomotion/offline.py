@@ -22,7 +22,7 @@ from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
 
 _ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
-               "toe", "tail", "look", "foot_yaw", "contacts", "phase", "speed", "duty", "spine",
+               "toe", "load", "tail", "look", "foot_yaw", "contacts", "phase", "speed", "duty", "spine",
                "heading_rate", "amplitude")
 
 

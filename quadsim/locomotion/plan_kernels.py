@@ -53,6 +53,7 @@ from quadsim.locomotion.pose_kernel import (
     FOLD,
     FOOT_YAW,
     HEADING,
+    LOAD,
     LOOK,
     PITCH,
     ROOT,
@@ -358,6 +359,7 @@ def pack_rows(state, out):
         packed[n, LOOK] = LOOK_PER_BEND * mo.bend[n]
         for i in range(4):
             packed[n, FOOT_YAW + i] = state.feet.yaw[n, i]
+            packed[n, LOAD + i] = out.load[n, i]
         for k in range(n_tail):
             packed[n, TAIL + 2 * k] = tail[n, k, 0]
             packed[n, TAIL + 2 * k + 1] = tail[n, k, 1]

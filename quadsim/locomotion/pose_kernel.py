@@ -16,7 +16,7 @@ plans them, the interactive step packs one frame. The legs' IK is
 Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 ``root`` (3), ``heading``, ``pitch``, ``sway`` (2), ``bend_yaw``,
 ``bend_pitch``, ``feet`` (4 x 3, row-major), ``fold`` (4), ``toe`` (4),
-``look``, ``foot_yaw`` (4), then ``tail`` (n_tail x (pitch, yaw)).
+``look``, ``foot_yaw`` (4), ``load`` (4), then ``tail`` (n_tail x (pitch, yaw)).
 
 Leg constants (:func:`pack_legs`), per leg LF, RF, LH, RH: ``leg_int`` (4, 4 + n_max + 1)
 holds the number of bones n, the pair's upper bone, the top joint's parent,
@@ -43,8 +43,8 @@ __all__ = ["CHUNK", "PARALLEL_ROWS", "PoseRig", "PoseScratch", "layout", "nod_of
            "pack_plan", "plan_columns", "pose_rig", "pose_rows", "pose_scratch"]
 
 #: column of each packed plan field (the tail follows from ``TAIL``)
-ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, FOOT_YAW, TAIL = (
-    0, 3, 4, 5, 7, 8, 9, 21, 25, 29, 30, 34)
+ROOT, HEADING, PITCH, SWAY, BEND_YAW, BEND_PITCH, FEET, FOLD, TOE, LOOK, FOOT_YAW, LOAD, TAIL = (
+    0, 3, 4, 5, 7, 8, 9, 21, 25, 29, 30, 34, 38)
 
 
 def plan_columns(n_tail: int) -> int:
@@ -85,6 +85,7 @@ def pack_plan(plan: dict, n_tail: int) -> np.ndarray:
     else:  # the body's heading, the fore feet's with the spine's yaw
         out[:, FOOT_YAW:FOOT_YAW + 4] = out[:, HEADING, None]
         out[:, FOOT_YAW:FOOT_YAW + 2] += out[:, BEND_YAW, None]
+    out[:, LOAD:LOAD + 4] = plan["load"] if "load" in plan else 0.0
     if n_tail:
         out[:, TAIL:] = np.reshape(np.asarray(plan["tail"])[:, :n_tail], (T, 2 * n_tail))
     return out
@@ -382,7 +383,7 @@ def pose_rig(parents, offsets, spine, tail, neck, trunk, thorax: int, legs, nod:
     how, frame, fixed, rest = layout(parents, spine, tail, neck, trunk, legs[0])
     return PoseRig(parents, np.array(offsets, dtype=float), spine, tail, neck, trunk,
                    int(thorax), *legs, float(nod), how, frame, fixed, rest,
-                   ints([FEET, FOLD, TOE, FOOT_YAW, -1]))
+                   ints([FEET, FOLD, TOE, FOOT_YAW, LOAD]))
 
 
 class PoseScratch(NamedTuple):

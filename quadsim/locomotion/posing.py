@@ -43,6 +43,7 @@ PLAN_FIELDS = {
     "feet": (4, 3),        # foot targets (m)
     "fold": (4,),          # swing fold 0..1
     "toe": (4,),           # toe pitch (rad)
+    "load": (4,),          # stance load over the body's weight (optional: else none)
     "tail": (None, 2),     # tail joint (pitch, yaw) local angles (rad)
     "look": (),            # head yaw relative to the thorax (rad)
     "foot_yaw": (4,),      # world yaw each foot keeps (rad; optional: else the heading's)

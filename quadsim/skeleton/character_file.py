@@ -169,6 +169,12 @@ class LocomotionTable(Mapping):
         How far each foot rolls over its toe tip by lift-off (deg): the heel
         rises through the last part of the stance, the toe tip planted
         (:mod:`quadsim.locomotion.feet`); 0 or absent keeps it flat.
+    fetlock_sink_deg : float or None
+        How far each leg's digit (the bones below the first one under its IK
+        pair: a horse's pasterns) turns towards the ground under a load of the
+        body's weight (deg), the fetlock sinking through the stance and
+        recovering by lift-off (:func:`~quadsim.locomotion.feet.stance_load`);
+        0 or absent keeps the digit at its rest angle to the leg.
     """
 
     gaits: tuple[str, ...] | None = None
@@ -180,6 +186,7 @@ class LocomotionTable(Mapping):
     min_turn_radius_body_lengths: float | None = None
     head_nod_deg: float | None = None
     toe_roll_deg: float | None = None
+    fetlock_sink_deg: float | None = None
 
     def __getitem__(self, key: str):
         value = getattr(self, key, None) if key in _LOCOMOTION_KEYS else None
@@ -204,6 +211,7 @@ _LOCOMOTION_RANGES = {
     "min_turn_radius_body_lengths": (0.0, 100.0, False),
     "head_nod_deg": (0.0, 45.0, True),
     "toe_roll_deg": (0.0, 60.0, True),
+    "fetlock_sink_deg": (0.0, 45.0, True),
 }
 
 
