@@ -39,8 +39,8 @@ KNOWN = {
     ("leopard_cub", "procedural", "peak_joint_speed_deg_s"): "3,440 deg/s (rotary -> trot); 9/30",
     ("dog_cub", "procedural", "peak_joint_speed_deg_s"): "3,570 deg/s (canter -> transverse); 6/30",
     ("horse", "procedural", "peak_joint_speed_deg_s"): "4,088 deg/s (walk -> transverse); 28/56",
-    ("horse", "data", "peak_joint_speed_deg_s"): "2,584 deg/s (gallop -> canter); 20/30",
-    ("horse", "data", "touchdown_speed_ratio_p90"): "0.34 (gallop -> trot); 22/30",
+    ("horse", "data", "peak_joint_speed_deg_s"): "2,602 deg/s (gallop -> canter); 20/30",
+    ("horse", "data", "touchdown_speed_ratio_p90"): "0.36 (gallop -> trot); 21/30",
 }
 
 

@@ -100,6 +100,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import tempfile
 from dataclasses import replace
 from pathlib import Path
 
@@ -113,7 +114,8 @@ from quadsim.horse.playback import CLIP_ANCHORED
 from quadsim.horse.speed import HOYT, clip_contact_time, contact_time, expand
 from quadsim.errors import InputError
 from quadsim.io.atomic import atomic_write_bytes
-from quadsim.io.bvh import write_bvh
+from quadsim.io.bvh import read_bvh, write_bvh
+from quadsim.io.clips import retarget_clip
 from quadsim.commands import Command
 from quadsim.locomotion.offline import simulate
 from quadsim.skeleton.character import characters_dir, load_character
@@ -121,6 +123,8 @@ from quadsim.skeleton.motion import Motion
 
 FPS = 60.0
 TAKE_SECONDS = 8.0
+#: Decimals of the shipped BVH files.
+BVH_PRECISION = 6
 #: A cycle whose ends differ by up to this (deg, any joint) is looped: at 60 fps
 #: a stride is not a whole number of frames, and the swing joints turn up to
 #: 2,000 deg/s, several degrees in the half frame a cut can miss by.
@@ -277,6 +281,18 @@ def expansion_defects(clip: Clip, character, speeds) -> list[str]:
     return out
 
 
+def as_shipped(motion: Motion, character) -> Motion:
+    """``motion`` as the clip database will read it: written to a BVH file at the
+    shipped precision (:data:`BVH_PRECISION`) and read back onto ``character``. A
+    contact measured at a hoof's threshold may read differently after the rounding
+    (an amble cycle whose left hind landed twice in two loops as cut landed once
+    as shipped)."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "cycle.bvh"
+        write_bvh(motion, path, precision=BVH_PRECISION)
+        return retarget_clip(read_bvh(path), character, str(path))
+
+
 def best_cycle(take: Motion, character, gait: str, speed: float, where: str) -> Cycle:
     """The best-looping cut cycle of ``take`` that :func:`cycle_defects` passes and, as
     a ``gait`` clip at nominal ``speed``, :func:`expansion_defects` over its
@@ -293,7 +309,7 @@ def best_cycle(take: Motion, character, gait: str, speed: float, where: str) -> 
     report = []
     span = served_span(gait, speed)
     for cyc in sorted(cycles, key=lambda c: c.loop_error_deg):
-        bad = cycle_defects(cyc)
+        bad = cycle_defects(replace(cyc, motion=as_shipped(cyc.motion, character)))
         if not bad:
             clip = Clip(where, gait, cyc.speed, cyc.frames, cyc.touchdown, cyc.lead, cyc.motion)
             bad = expansion_defects(clip, character, span)
@@ -419,7 +435,7 @@ def bake(out: Path) -> list[str]:
                f"clearance {clearance:.3f} m, td {tdd}")
     out.mkdir(parents=True, exist_ok=True)
     for name, m in motions.items():
-        write_bvh(m, out / f"{name}.bvh", precision=6)
+        write_bvh(m, out / f"{name}.bvh", precision=BVH_PRECISION)
     atomic_write_bytes(out / "manifest.toml", "\n".join(lines).encode("utf-8"))
     return log
 

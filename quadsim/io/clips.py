@@ -57,7 +57,7 @@ from quadsim.skeleton.character import Character, characters_dir
 from quadsim.skeleton.motion import Motion
 
 __all__ = ["LAW_KEYS", "MANIFEST_KEYS", "clip_folder", "load_database",
-           "load_default_database", "playable_gaits"]
+           "load_default_database", "playable_gaits", "retarget_clip"]
 
 #: The fields a manifest's clip table may have.
 MANIFEST_KEYS = frozenset({"file", "gait", "speed", "frames", "touchdown", "lead", "source",
@@ -187,7 +187,7 @@ def _load_clip(name, entry, where, folder, character) -> Clip:
         raw = read_bvh(path)
     except (InputError, ValueError, OSError) as e:
         raise InputError(f"{where}: `file` {path.name!r} is not a usable BVH: {e}") from None
-    motion = _retarget(raw, character, f"{where}: `file` {path.name!r}")
+    motion = retarget_clip(raw, character, f"{where}: `file` {path.name!r}")
     if len(motion) < frames:
         raise InputError(f"{where}: `frames` = {frames} is out of range: "
                          f"the BVH holds only {len(motion)} frames")
@@ -197,8 +197,9 @@ def _load_clip(name, entry, where, folder, character) -> Clip:
                 None if height is None else float(height))
 
 
-def _retarget(raw: Motion, character: Character, where: str) -> Motion:
-    """Put a read motion on the character's skeleton by joint name."""
+def retarget_clip(raw: Motion, character: Character, where: str) -> Motion:
+    """Put a read motion (a clip's BVH) on the character's skeleton by joint name;
+    ``where`` names the file in errors."""
     skel = character.skeleton
     names = set(raw.skeleton.names)
     leg_joints = [skel.names[j] for leg in character.legs for j in leg.chain]
