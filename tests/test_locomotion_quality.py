@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from quadsim import list_characters, load_character
+from quadsim import simulate as api_simulate
 from quadsim.analysis import metrics as M
 from quadsim.analysis.appearance import appearance_report
 from quadsim.locomotion import Command, QuadsimClampWarning, Script, simulate
@@ -173,6 +174,21 @@ def test_the_horses_fetlocks_sink_under_load_and_recover_by_lift_off(gait):
     assert r[:, 0].min() >= drop, r[:, 0].min()
     assert 0.2 <= r[:, 1].min() and r[:, 1].max() <= 0.6, r[:, 1]
     assert r[:, 2].min() >= angle, r[:, 2].min()
+    assert r[:, 3].all()
+
+
+@pytest.mark.parametrize("speed", [4.0, 6.5, 12.0])
+def test_the_data_horses_fetlocks_sink_as_its_baked_clips_do(speed):
+    """The data mode inherits the procedural horse through its baked clips: trotting,
+    cantering and galloping (4, 6.5, 12 m/s) its fetlocks come down at least 2 cm below
+    where they landed, lowest between a fifth and three fifths of each stance, and rise
+    back above it by lift-off."""
+    ch = load_character("horse")
+    m = api_simulate(ch, Command(speed=speed), seconds=10.0, mode="data").time_slice(3.0, 11.0)
+    r = _fetlock_sinks(m, ch)
+    assert len(r) >= 12
+    assert r[:, 0].min() >= 0.02, r[:, 0].min()
+    assert 0.2 <= r[:, 1].min() and r[:, 1].max() <= 0.6, r[:, 1]
     assert r[:, 3].all()
 
 
