@@ -145,7 +145,7 @@ def test_flight_acceleration_sees_a_ballistic_fall(gallop):
     fps = gallop.fps
     from quadsim.skeleton.contacts import foot_contacts
 
-    air = ~foot_contacts(gallop.foot_positions(), fps).any(axis=1)
+    air = ~foot_contacts(gallop.contact_points(), fps).any(axis=1)  # as the report finds them
     m = np.concatenate([[False], air, [False]]).astype(np.int8)
     starts, ends = np.flatnonzero(np.diff(m) == 1), np.flatnonzero(np.diff(m) == -1)
     for s, e in zip(starts, ends):

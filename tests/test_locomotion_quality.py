@@ -108,13 +108,15 @@ def _stances_of(motion):
 
 @pytest.mark.parametrize("character,gait", [
     ("leopard", "walk"), ("leopard", "trot"), ("leopard", "transverse_gallop"),
-    ("leopard_cub", "canter"), ("leopard_cub", "rotary_gallop")])
+    ("leopard_cub", "canter"), ("leopard_cub", "rotary_gallop"), ("horse", "walk"),
+    ("horse", "trot"), ("horse", "canter"), ("horse", "rotary_gallop")])
 def test_paws_roll_over_their_planted_toe_tips_at_push_off(character, gait):
     """The issue's push-off, from the produced joints: while a toe tip is planted (still,
     on the ground) its paw lies flat through the first 40 % of the stance, its joint
     on the ground, and then rolls over the tip, the joint (the heel) risen by the
     stance's last frame by at least a fifth of the paw's length (50 degrees of roll
-    raise it by three quarters of it)."""
+    raise it by three quarters of it); a hoof breaks over at the toe likewise (30
+    degrees: half its length)."""
     m = steady(character, gait)
     joints, tips = m.foot_positions(), m.contact_points()
     toe = np.linalg.norm(tips[0] - joints[0], axis=-1)  # each paw's length (m)
@@ -205,12 +207,11 @@ def test_without_a_fetlock_sink_the_fetlock_rises_from_touchdown():
     assert np.abs(r[:, 0]).max() < 1e-3 and (r[:, 1] == 0).all()
 
 
-@pytest.mark.parametrize("character", ["dog_cub", "horse"])
-def test_feet_without_a_toe_roll_stay_flat_through_the_stance(character):
-    """A character file without ``toe_roll_deg`` keeps its paws or hooves flat: the foot
-    joint stays on the ground through every stance of its trot and gallop."""
+def test_feet_without_a_toe_roll_stay_flat_through_the_stance():
+    """A character file without ``toe_roll_deg`` (the dog cub's) keeps its paws flat:
+    the foot joint stays on the ground through every stance of its trot and gallop."""
     for gait in ("trot", "rotary_gallop"):
-        m = steady(character, gait)
+        m = steady("dog_cub", gait)
         joints = m.foot_positions()
         for leg, a, b in _stances_of(m):
             assert np.abs(joints[a:b, leg, 1]).max() < 5e-4, (gait, leg, a)
@@ -239,15 +240,15 @@ PEAK_JOINT_SPEED_DEG_S = 2000.0
 #: a hind knee late in the swing; the leopard cub's rotary gallop, 3,173 before,
 #: peaks where a fore elbow opens 57 degrees in mid-swing.
 PEAK_ABOVE_BOUND = {
-    ("leopard", "transverse_gallop"): "2,174 LH_knee",
+    ("leopard", "transverse_gallop"): "2,170 LH_knee",
     ("leopard", "rotary_gallop"): "3,133 LF_elbow",
-    ("leopard_cub", "transverse_gallop"): "2,763 RH_knee",
-    ("leopard_cub", "rotary_gallop"): "3,433 LF_elbow",
+    ("leopard_cub", "transverse_gallop"): "2,561 RH_knee",
+    ("leopard_cub", "rotary_gallop"): "3,315 LF_elbow",
     ("dog_cub", "canter"): "2,276 LF_elbow",
     ("dog_cub", "transverse_gallop"): "3,517 RF_elbow",
     ("dog_cub", "rotary_gallop"): "3,076 LF_elbow",
     ("horse", "transverse_gallop"): "4,070 RH_stifle",
-    ("horse", "rotary_gallop"): "3,759 LF_elbow",
+    ("horse", "rotary_gallop"): "3,681 LF_elbow",
 }
 
 
@@ -297,7 +298,7 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
 #: (the trunk's course goes on at its own rate) and, in the horse's walk, the
 #: fore girdle kept from crouching lower than CROUCH_REACH allows.
 TRUNK_JOLT_G = 6.0
-JOLTS_ABOVE_BOUND = {("horse", "walk"): 8.9, ("horse", "trot"): 7.5, ("horse", "pace"): 6.3,
+JOLTS_ABOVE_BOUND = {("horse", "walk"): 8.8, ("horse", "trot"): 7.8, ("horse", "pace"): 6.4,
                      ("leopard", "trot"): 7.0, ("leopard_cub", "trot"): 6.2}
 
 
@@ -406,10 +407,10 @@ def test_the_horse_nods_its_head_and_cats_and_dogs_hold_theirs_level(gait, nods)
 #: 2,323 at 240, from 4,208 and 4,775); the horse's walk, trot and pace drop a girdle by about
 #: 17 mm in one frame at a fore touchdown.
 PEAK_GROWS_WITH_FPS = {
-    ("leopard", "rotary_gallop"): "3,135 -> 3,770 deg/s",
-    ("leopard_cub", "transverse_gallop"): "2,763 -> 3,896 deg/s",
+    ("leopard", "rotary_gallop"): "3,135 -> 3,741 deg/s",
+    ("leopard_cub", "transverse_gallop"): "2,489 -> 3,942 deg/s",
     ("dog_cub", "canter"): "2,267 -> 4,757 deg/s",
-    ("horse", "trot"): "1,010 -> 1,848 deg/s",
+    ("horse", "trot"): "1,018 -> 1,819 deg/s",
 }
 
 

@@ -142,7 +142,9 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     target = kp + rotate_y(offset, kh_new)
     target[..., 1] = 0.0
     step = np.linalg.norm(target - lf, axis=-1)
-    height = np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
+    # the clearance over the ground: a lift-off point's height (a rolled heel's) is not added
+    height = np.maximum(np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
+                        - 0.5 * lf[..., 1], 0.0)
     # the fast gaits' path from a duty factor of 0.6 down to 0.4, the walk's from
     # 0.55 up to 0.6 (the duties span both)
     fast = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)[:, None]

@@ -386,7 +386,11 @@ def bake(out: Path) -> list[str]:
     ship (:func:`best_cycle`) leaves ``out`` as it was; each file is then
     replaced whole (the manifest last).
     """
+    # the takes' horse keeps its hooves flat: the data mode plants and measures a
+    # clip's contacts at the hoof joints, so a hoof breaking over at the toe would
+    # read as a short stance (``[locomotion] toe_roll_deg`` off)
     horse = load_character("horse")
+    horse = replace(horse, locomotion=replace(horse.locomotion, toe_roll_deg=None))
     lines = [
         '# The default horse clip database (see quadsim.horse.database).',
         '# Made by tools/bake_horse_clips.py; regenerate with',
