@@ -213,8 +213,9 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (0/1) and the chain's joint indices; ``leg_top`` (L, 3) the top joint's
     offset (m); ``leg_bones`` (L, 8, n_max) the bone lengths (m), rest
     angles, full-fold angles, lower and upper flexion limits (rad), the
-    rest angles' cosines and sines and the full-load sink angles (rad); ``leg_scal`` (L, 5) the bend sign, pre
-    and post gains, toe angle and rest leg angle (rad).
+    rest angles' cosines and sines and the full-load sink angles (rad);
+    ``leg_scal`` (L, 5) the bend sign, pre and post gains, toe angle and rest
+    leg angle (rad).
     """
     n_max = max(g.n_bones for g in legs)
     leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)

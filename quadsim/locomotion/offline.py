@@ -22,8 +22,8 @@ from quadsim.skeleton.character import Character
 from quadsim.skeleton.motion import Motion
 
 _ARRAY_KEYS = ("root", "heading", "pitch", "sway", "bend_yaw", "bend_pitch", "feet", "fold",
-               "toe", "load", "tail", "look", "foot_yaw", "contacts", "phase", "speed", "duty", "spine",
-               "heading_rate", "amplitude")
+               "toe", "load", "tail", "look", "foot_yaw", "contacts", "phase", "speed", "duty",
+               "spine", "heading_rate", "amplitude")
 
 
 def stack_plans(plans: list[dict]) -> dict[str, np.ndarray]:
