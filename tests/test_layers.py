@@ -20,7 +20,7 @@ LAYERS = [
      "quadsim._version"),
     ("quadsim.kinematics.rotations", "quadsim.kinematics.chains", "quadsim.kinematics"),
     ("quadsim.skeleton", "quadsim.commands"),
-    ("quadsim.controller", "quadsim.kinematics.ik", "quadsim.mesh"),
+    ("quadsim.controller", "quadsim.kinematics.ik", "quadsim.kinematics.legs", "quadsim.mesh"),
     ("quadsim.locomotion", "quadsim.horse"),
     ("quadsim.analysis", "quadsim.io", "quadsim.robots"),
     ("quadsim.config",),

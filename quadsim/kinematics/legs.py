@@ -1,0 +1,175 @@
+"""Legs as the IK sees them: each leg's bones, rest angles, folds and limits.
+
+:class:`LegGeometry` describes one leg of a character for the inverse kinematics
+(:mod:`quadsim.kinematics.ik`), :func:`leg_geometry` works it out from the
+character file, and :func:`pack_legs` lays legs out as the compiled kernel's
+arrays. Conventions as in :mod:`quadsim.kinematics.ik`: in-plane angles are
+measured from the downward direction towards forward (+Z), in radians.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from quadsim.skeleton.character import Character, LegSpec
+
+__all__ = ["DEFAULT_FOLD_LIMITS", "MAX_FOLD", "LegGeometry", "leg_geometry", "pack_legs"]
+
+#: A post joint with no limits in the character file folds within these (rad).
+DEFAULT_FOLD_LIMITS = (math.radians(-30.0), math.radians(30.0))
+#: Largest fold of a post bone (rad).
+MAX_FOLD = math.radians(75.0)
+
+
+@dataclass(frozen=True, eq=False)
+class LegGeometry:
+    """Precomputed, immutable description of one leg for the IK.
+
+    Attributes
+    ----------
+    chain : ndarray of int, shape (n + 1,)
+        Joint indices, top to foot.
+    parent : int
+        Index of the top joint's parent (a spine joint).
+    top_offset : ndarray, shape (3,)
+        Offset of the top joint in the parent's frame (m).
+    lengths : ndarray, shape (n,)
+        Bone lengths, bone ``k`` from ``chain[k]`` to ``chain[k + 1]`` (m).
+    rest_angles : ndarray, shape (n,)
+        In-plane rest angle of each bone (rad).
+    pair : int
+        Bone index of the pair's upper bone (the pair is ``pair``, ``pair + 1``).
+    bend : float
+        +1 if the pair's middle joint points forward, -1 if back.
+    fold : ndarray, shape (n,)
+        In-plane angle added to each post bone at full swing fold (rad).
+    sink : ndarray, shape (n,)
+        In-plane angle added to each digit bone (the post bones below the
+        first) under a load of the body's weight (rad): ``[locomotion]
+        fetlock_sink_deg``, towards the ground; 0 elsewhere.
+    pre_gain : float
+        Fraction of the leg's swing angle taken by each pre bone.
+    post_gain : float
+        Fraction of the leg's swing angle taken by each post bone.
+    toe_angle : float
+        In-plane rest angle of the foot joint's end site (rad).
+    rest_leg_angle : float
+        In-plane angle from the top joint to the foot at rest (rad).
+    lower, upper : ndarray, shape (n,)
+        Flexion limits (rad) of the joint that turns each bone (``chain[k]``),
+        relative to rest; infinite where the character gives none. The post
+        joints are kept inside theirs.
+    """
+
+    chain: np.ndarray
+    parent: int
+    top_offset: np.ndarray
+    lengths: np.ndarray
+    rest_angles: np.ndarray
+    pair: int
+    bend: float
+    fold: np.ndarray
+    sink: np.ndarray
+    pre_gain: float
+    post_gain: float
+    toe_angle: float
+    rest_leg_angle: float
+    lower: np.ndarray
+    upper: np.ndarray
+
+    @cached_property
+    def limited(self) -> bool:
+        """Whether any post joint has a finite flexion limit."""
+        return bool(np.any(np.isfinite(self.lower[..., self.pair + 2:]))
+                    or np.any(np.isfinite(self.upper[..., self.pair + 2:])))
+
+    @property
+    def n_bones(self) -> int:
+        return self.lengths.shape[-1]
+
+
+def leg_geometry(character: Character, leg: LegSpec, *,
+                 fold_fraction: float = 0.55) -> LegGeometry:
+    """Build a leg's :class:`LegGeometry` from the character description.
+
+    The fold direction of each post bone comes from the character's joint
+    limits: a joint folds towards the side of its larger flexion range (a
+    hock folds its metatarsus forward, a carpus its cannon back), by
+    ``fold_fraction`` of that range, capped at 75 degrees. The digit bones
+    (the post bones below the first) sink by the character's
+    ``[locomotion] fetlock_sink_deg``, forward (their lower ends turn
+    towards the ground ahead of the fetlock).
+    """
+    sk = character.skeleton
+    chain = np.asarray(leg.chain)
+    offs = sk.offsets[chain[1:]]
+    where = f"{character.path or character.id}: legs.{leg.name}"
+    if np.any(np.abs(offs[:, 0]) > 1e-9):
+        bad = [sk.names[j] for j, o in zip(chain[1:], offs) if abs(o[0]) > 1e-9]
+        raise ValueError(f"{where}: joints below the top of a leg must have a zero X offset "
+                         f"(the leg's plane); not so for {', '.join(bad)}")
+    lengths = np.linalg.norm(offs, axis=-1)
+    if np.any(lengths < 1e-6):
+        raise ValueError(f"{where}: a bone of zero length")
+    rest = np.arctan2(offs[:, 2], -offs[:, 1])
+    n = len(lengths)
+    fold = np.zeros(n)
+    for k in range(leg.ik_start + 2, n):
+        joint = int(chain[k])
+        lo, hi = character.limits.get(joint, DEFAULT_FOLD_LIMITS)
+        # positive rotation about +X swings the bone backwards: angle -= theta
+        big = hi if abs(hi) >= abs(lo) else lo
+        fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, MAX_FOLD)
+    sink = np.zeros(n)
+    sink[leg.ik_start + 3:] = math.radians(float(character.locomotion.get("fetlock_sink_deg",
+                                                                           0.0)))
+    foot = sk.names[chain[-1]]
+    end = sk.end_sites.get(foot, np.array([0.0, 0.0, 1.0]))
+    toe = float(np.arctan2(end[2], -end[1]))
+    rel = offs.sum(0)
+    lower = np.full(n, -np.inf)
+    upper = np.full(n, np.inf)
+    for k in range(n):
+        lim = character.limits.get(int(chain[k]))
+        if lim is not None:
+            lower[k], upper[k] = lim
+    return LegGeometry(
+        chain=chain, parent=int(sk.parents[chain[0]]), top_offset=sk.offsets[chain[0]].copy(),
+        lengths=lengths, rest_angles=rest, pair=leg.ik_start, bend=leg.bend, fold=fold,
+        sink=sink, pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe,
+        rest_leg_angle=float(np.arctan2(rel[2], -rel[1])), lower=lower, upper=upper,
+    )
+
+
+def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Legs' :class:`LegGeometry` as the kernel's ``leg_int``, ``leg_top``,
+    ``leg_bones`` and ``leg_scal`` arrays, L legs.
+
+    ``leg_int`` (L, 4 + n_max + 1) holds the number of bones n, the pair's
+    upper bone, the top joint's parent, whether the post joints are limited
+    (0/1) and the chain's joint indices; ``leg_top`` (L, 3) the top joint's
+    offset (m); ``leg_bones`` (L, 8, n_max) the bone lengths (m), rest
+    angles, full-fold angles, lower and upper flexion limits (rad), the
+    rest angles' cosines and sines and the full-load sink angles (rad);
+    ``leg_scal`` (L, 5) the bend sign, pre and post gains, toe angle and rest
+    leg angle (rad).
+    """
+    n_max = max(g.n_bones for g in legs)
+    leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
+    leg_top = np.zeros((len(legs), 3))
+    leg_bones = np.zeros((len(legs), 8, n_max))
+    leg_scal = np.zeros((len(legs), 5))
+    for i, g in enumerate(legs):
+        n = g.n_bones
+        leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
+        leg_int[i, 4:4 + n + 1] = g.chain
+        leg_top[i] = g.top_offset
+        for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
+                                 np.cos(g.rest_angles), np.sin(g.rest_angles), g.sink)):
+            leg_bones[i, r, :n] = arr
+        leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
+    return leg_int, leg_top, leg_bones, leg_scal
