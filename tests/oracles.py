@@ -239,8 +239,17 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
             phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
         reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)
 
+    # the digit (and the foot) drawn folded further with the fold, as far as the target is
+    # up, which the pair does not make up for
+    carried = np.maximum(fold, 0.0)
+    if geom.tuck_height > 0.0:  # as far as the target is up
+        carried = carried * np.clip(np.asarray(target, dtype=float)[..., 1] / geom.tuck_height,
+                                    0.0, 1.0)
+    for k in range(k0 + 3, n):
+        phi[..., k] = phi[..., k] + geom.carry[..., k] * carried
     theta = A0 - phi  # cumulative rotation about +X of each chain joint
-    toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float)
+    toe_phi = phi_down + np.pi / 2 + np.asarray(toe_pitch, dtype=float) \
+        + geom.foot_carry * carried
     theta_foot = geom.toe_angle - toe_phi
     cum = np.concatenate([theta, theta_foot[..., None]], axis=-1)
     rel = np.concatenate([cum[..., :1], np.diff(cum, axis=-1)], axis=-1)

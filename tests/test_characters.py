@@ -241,7 +241,7 @@ def test_locomotion_table_reads_as_a_mapping_of_the_keys_given(name):
     assert set(loc) == {k for k in ("gaits", "auto", "max_turn_rate_deg_s", "spine_flex_deg",
                                     "spine_extend_deg", "spine_slow_scale",
                                     "min_turn_radius_body_lengths", "head_nod_deg", "toe_roll_deg",
-                                    "fetlock_sink_deg")
+                                    "fetlock_sink_deg", "digit_flex_deg")
                         if getattr(loc, k) is not None}
     assert "min_turn_radius_body_lengths" not in loc
     assert loc.get("min_turn_radius_body_lengths", 1.0) == 1.0
@@ -498,6 +498,10 @@ def test_the_base_file_of_the_error_tests_is_valid(tmp_path):
                  r"two bones below its pair; legs LF, RF, LH, RH have fewer: give them a digit "
                  r"\(fetlock -> pastern -> hoof\) or set fetlock_sink_deg = 0",
                  id="fetlock-sink-without-a-digit"),
+    pytest.param(BASE + "\n[locomotion]\ndigit_flex_deg = 60.0\n",
+                 r"locomotion\.digit_flex_deg = 60: a leg's digit .* flexes in swing, so every "
+                 r"leg needs at least two bones below its pair; legs LF, RF, LH, RH have fewer",
+                 id="digit-flex-without-a-digit"),
     # geometry: zero-length bones
     pytest.param(edited(LH_KNEE, LH_KNEE.replace("[0.0, -0.25, 0.05]", "[0.0, 0.0, 0.0]")),
                  r"joints\[7\]\.offset = \[0\.0, 0\.0, 0\.0\]: joint 'LH_knee' sits on its "

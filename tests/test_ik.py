@@ -14,6 +14,8 @@ rest, so that is also its world rotation).
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -236,18 +238,34 @@ def test_batch_equals_one_by_one(name, leg_name):
 
 @pytest.mark.parametrize("name, leg_name", CASES, ids=IDS)
 def test_fold_and_toe_pitch_keep_the_foot_on_target(name, leg_name):
-    """The swing fold and toe pitch reshape the leg but not where its foot joint is."""
+    """The swing fold and toe pitch reshape the leg but not where its foot joint is;
+    a digit that tucks up in swing (the horse's fore pasterns, below a cannon the
+    carpus folds back: ``digit_flex_deg``) is drawn folded further, the fetlock left
+    where the pair put it and the foot carried with the digit."""
     rng = np.random.default_rng(600 + CASES.index((name, leg_name)))
     ch, leg, geom = setup(name, leg_name)
     rest = ch.skeleton.rest_positions
     targets, R = reachable_targets(rng, ch, geom, np.eye(3))
     fold = rng.uniform(0, 1, len(targets))
     toe = rng.uniform(-0.5, 0.5, len(targets))
-    local, reached = solve_leg(geom, R, rest[geom.parent], targets, fold, toe)
+    flat = replace(geom, carry=np.zeros_like(geom.carry), foot_carry=0.0)
+    local, reached = solve_leg(flat, R, rest[geom.parent], targets, fold, toe)
     ok = reached == 0
     assert ok.mean() > 0.8
     P = pose(ch, geom, local[ok])
     np.testing.assert_allclose(P[:, leg.foot], targets[ok], rtol=0, atol=1e-9)
+    drawn, _ = solve_leg(geom, R, rest[geom.parent], targets, fold, toe)
+    Q = pose(ch, geom, drawn[ok])
+    # the horse's fore legs: a digit below a cannon its carpus folds back
+    tucks = name == "horse" and leg_name in ("LF", "RF")
+    assert geom.carry.any() == tucks
+    if tucks:
+        fetlock = leg.chain[leg.ik_start + 3]
+        np.testing.assert_allclose(Q[:, fetlock], P[:, fetlock], rtol=0, atol=1e-9)
+        carried = np.linalg.norm(Q[:, leg.foot] - P[:, leg.foot], axis=-1)
+        assert carried.max() > 0.05 and carried[fold[ok] < 1e-3].max(initial=0.0) < 1e-6
+    else:
+        np.testing.assert_allclose(Q, P, rtol=0, atol=1e-12)
 
 
 # ------------------------------------------------------------------ what a viewer sees

@@ -179,6 +179,40 @@ def test_the_horses_fetlocks_sink_under_load_and_recover_by_lift_off(gait):
     assert r[:, 3].all()
 
 
+@pytest.mark.parametrize("gait", ["walk", "trot", "canter", "transverse_gallop",
+                                  "rotary_gallop"])
+def test_the_horses_fore_hooves_tuck_under_the_cannon_in_swing(gait):
+    """A horse's fore fetlock flexes in swing, the hoof tucking under the cannon
+    (``digit_flex_deg``); it hung in front of it, a paw reaching forward, the fetlock
+    opened from 35 to 80 degrees ahead of the cannon's line. From the joints' world
+    positions: in every swing of a fore leg the digit (fetlock to pastern joint) opens
+    at most 50 degrees ahead of the cannon's line (35 at touchdown), and in the
+    canter and gallops, whose hooves swing high, it passes behind the line (the tuck
+    is scaled down while the hoof is low: a tucked hoof hangs its toe below its
+    joint); the hind legs, whose hocks fold the cannon forward, pass 15 degrees
+    behind it."""
+    ch = load_character("horse")
+    m = steady("horse", gait)
+    P = m.world_positions()
+    contacts = M.foot_contacts(m.contact_points(), m.fps)
+    for i, leg in enumerate(ch.legs):
+        top, fetlock, below = (leg.chain[leg.ik_start + k] for k in (2, 3, 4))
+        cannon, digit = P[:, fetlock] - P[:, top], P[:, below] - P[:, fetlock]
+        # the digit's angle from the cannon's line in the leg's plane, ahead positive
+        ahead = np.degrees(np.arctan2(-np.cross(cannon, digit)[:, 0],
+                                      (cannon * digit).sum(-1)))
+        iv = M.contact_intervals(contacts)[i]
+        swings = [ahead[b:a] for (_, b), (a, _) in zip(iv[:-1], iv[1:])]
+        assert len(swings) >= 4
+        assert ahead[iv[1][0]] == pytest.approx(35.0, abs=3.0)
+        if i < 2:
+            assert max(w.max() for w in swings) <= 50.0, leg.name
+            if gait not in ("walk", "trot"):
+                assert max(w.min() for w in swings) <= -5.0, leg.name
+        else:
+            assert max(w.min() for w in swings) <= -15.0, leg.name
+
+
 @pytest.mark.parametrize("speed", [4.0, 6.5, 12.0])
 def test_the_data_horses_fetlocks_sink_as_its_baked_clips_do(speed):
     """The data mode inherits the procedural horse through its baked clips: trotting,

@@ -388,9 +388,12 @@ def bake(out: Path) -> list[str]:
     """
     # the takes' horse keeps its hooves flat: the data mode plants and measures a
     # clip's contacts at the hoof joints, so a hoof breaking over at the toe would
-    # read as a short stance (``[locomotion] toe_roll_deg`` off)
+    # read as a short stance (``[locomotion] toe_roll_deg`` off); and untucked in
+    # swing (``digit_flex_deg`` off): played slower than baked, a tucked hoof's toe
+    # dipped 10-11 mm into the ground (the trot clip at 3.9 m/s)
     horse = load_character("horse")
-    horse = replace(horse, locomotion=replace(horse.locomotion, toe_roll_deg=None))
+    horse = replace(horse, locomotion=replace(horse.locomotion, toe_roll_deg=None,
+                                              digit_flex_deg=None))
     lines = [
         '# The default horse clip database (see quadsim.horse.database).',
         '# Made by tools/bake_horse_clips.py; regenerate with',

@@ -17,7 +17,10 @@ is solved as
   to the *world* vertical, turned with the leg by a fraction of its swing
   angle (the heel rises as the leg sweeps back), plus a fold while the foot
   is in swing; the digit (the post bones below the first: a horse's pasterns)
-  turns towards the ground under the stance's load (the fetlock sinks).
+  turns towards the ground under the stance's load (the fetlock sinks), and
+  in swing is drawn folded with the bone above it and flexed at its own
+  joint (a hoof tucks up behind the carpus), the foot turning with it: a fold
+  the pair does not make up for, so the foot joint is carried with it.
 
 Reachable targets are reached exactly; so is a foot joint's world yaw, the
 foot held level, when the posing asks for it (:func:`leg_rows`). An
@@ -236,7 +239,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
             p = leg_int[i, 2]
             limited = leg_int[i, 3]
             bend, pre_gain, post_gain = leg_scal[i, 0], leg_scal[i, 1], leg_scal[i, 2]
-            toe_angle, rest_leg = leg_scal[i, 3], leg_scal[i, 4]
+            toe_angle, rest_leg, foot_carry = leg_scal[i, 3], leg_scal[i, 4], leg_scal[i, 5]
             l1 = leg_bones[i, 0, k0]
             l2 = leg_bones[i, 0, k0 + 1]
             ox, oy, oz = leg_top[i, 0], leg_top[i, 1], leg_top[i, 2]
@@ -319,6 +322,20 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                 if limited:
                     phi[k0 + 1] = math.atan2(y, x)
             err[t, i] = reached
+            # the digit drawn folded beyond what the pair made up for (carried), with
+            # the fold, as far as the foot's target is up (``tuck_height``): a tucked
+            # hoof hangs its toe below its joint (tucked by the fold alone, the toe
+            # dipped 9 mm into the ground in the walk; by its fourth power, lower near
+            # the ground, the fetlock turned at up to 2,467 deg/s into the canter)
+            f = max(plan[t, FOLD + i], 0.0)
+            if f > 0.0 and leg_scal[i, 6] > 0.0:
+                f *= min(max(plan[t, FEET + 3 * i + 1] / leg_scal[i, 6], 0.0), 1.0)
+            if f > 0.0:
+                for k in range(k0 + 3, n):
+                    if leg_bones[i, 8, k] != 0.0:
+                        phi[k] += leg_bones[i, 8, k] * f
+                        cphi[k] = math.cos(phi[k])
+                        sphi[k] = math.sin(phi[k])
             # local rotations about +X by rel_k = cum_k - cum_(k-1), where
             # cum_k = A0_k - phi_k (the foot's: toe_angle - (phi_down + pi / 2
             # + toe)), as the cosine and sine of angle differences
@@ -329,7 +346,7 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                     cc = leg_bones[i, 5, k] * cphi[k] + leg_bones[i, 6, k] * sphi[k]
                     cs = leg_bones[i, 6, k] * cphi[k] - leg_bones[i, 5, k] * sphi[k]
                 else:
-                    cum = toe_angle - (phi_down + math.pi / 2 + plan[t, TOE + i])
+                    cum = toe_angle - (phi_down + math.pi / 2 + plan[t, TOE + i] + foot_carry * f)
                     cc = math.cos(cum)
                     cs = math.sin(cum)
                 cb = cc * pc + cs * ps

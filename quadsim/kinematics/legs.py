@@ -47,6 +47,20 @@ class LegGeometry:
         +1 if the pair's middle joint points forward, -1 if back.
     fold : ndarray, shape (n,)
         In-plane angle added to each post bone at full swing fold (rad).
+    carry : ndarray, shape (n,)
+        In-plane angle each digit bone is drawn turned by at full swing fold
+        on top of its ``fold``, which the pair does not make up for (rad): the
+        digit folds with the bone above it and flexes at its own joint; 0
+        above the digit.
+    foot_carry : float
+        In-plane angle the foot is drawn turned by at full swing fold (rad):
+        the last digit bone's whole fold (a hoof turns with its pasterns); 0
+        where the leg has no digit.
+    tuck_height : float
+        How high (m) a swinging foot's target must be for its digit to tuck
+        fully (the digit's length: a hoof tucked back hangs its toe below its
+        joint); lower, the tuck is scaled down with the height (0 where the
+        leg has no carry).
     sink : ndarray, shape (n,)
         In-plane angle added to each digit bone (the post bones below the
         first) under a load of the body's weight (rad): ``[locomotion]
@@ -73,6 +87,9 @@ class LegGeometry:
     pair: int
     bend: float
     fold: np.ndarray
+    carry: np.ndarray
+    foot_carry: float
+    tuck_height: float
     sink: np.ndarray
     pre_gain: float
     post_gain: float
@@ -124,6 +141,14 @@ def leg_geometry(character: Character, leg: LegSpec, *,
         # positive rotation about +X swings the bone backwards: angle -= theta
         big = hi if abs(hi) >= abs(lo) else lo
         fold[k] = -np.sign(big) * min(abs(big) * fold_fraction, MAX_FOLD)
+    # a digit below a bone that folds back (a carpus folding the cannon back) is drawn
+    # folded with it and flexed further back at its own joint ([locomotion]
+    # digit_flex_deg): the hoof tucks up behind the cannon
+    carry = np.zeros(n)
+    d0 = leg.ik_start + 3
+    flex = math.radians(float(character.locomotion.get("digit_flex_deg", 0.0)))
+    if d0 < n and flex > 0.0 and fold[d0 - 1] < 0.0:
+        carry[d0:] = fold[d0 - 1] - flex - fold[d0:]
     sink = np.zeros(n)
     sink[leg.ik_start + 3:] = math.radians(float(character.locomotion.get("fetlock_sink_deg",
                                                                            0.0)))
@@ -140,6 +165,8 @@ def leg_geometry(character: Character, leg: LegSpec, *,
     return LegGeometry(
         chain=chain, parent=int(sk.parents[chain[0]]), top_offset=sk.offsets[chain[0]].copy(),
         lengths=lengths, rest_angles=rest, pair=leg.ik_start, bend=leg.bend, fold=fold,
+        carry=carry, foot_carry=float(fold[-1] + carry[-1]) if carry.any() else 0.0,
+        tuck_height=float(lengths[d0:].sum() + np.linalg.norm(end)) if carry.any() else 0.0,
         sink=sink, pre_gain=leg.pre_gain, post_gain=leg.post_gain, toe_angle=toe,
         rest_leg_angle=float(np.arctan2(rel[2], -rel[1])), lower=lower, upper=upper,
     )
@@ -154,22 +181,25 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (0/1) and the chain's joint indices; ``leg_top`` (L, 3) the top joint's
     offset (m); ``leg_bones`` (L, 8, n_max) the bone lengths (m), rest
     angles, full-fold angles, lower and upper flexion limits (rad), the
-    rest angles' cosines and sines and the full-load sink angles (rad);
-    ``leg_scal`` (L, 5) the bend sign, pre and post gains, toe angle and rest
-    leg angle (rad).
+    rest angles' cosines and sines, the full-load sink angles and the drawn
+    digit's carried fold angles (rad); ``leg_scal`` (L, 7) the bend sign, pre
+    and post gains, toe angle, rest leg angle, the foot's carried fold angle
+    (rad) and the tuck height (m).
     """
     n_max = max(g.n_bones for g in legs)
     leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
     leg_top = np.zeros((len(legs), 3))
-    leg_bones = np.zeros((len(legs), 8, n_max))
-    leg_scal = np.zeros((len(legs), 5))
+    leg_bones = np.zeros((len(legs), 9, n_max))
+    leg_scal = np.zeros((len(legs), 7))
     for i, g in enumerate(legs):
         n = g.n_bones
         leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
         leg_int[i, 4:4 + n + 1] = g.chain
         leg_top[i] = g.top_offset
         for r, arr in enumerate((g.lengths, g.rest_angles, g.fold, g.lower, g.upper,
-                                 np.cos(g.rest_angles), np.sin(g.rest_angles), g.sink)):
+                                 np.cos(g.rest_angles), np.sin(g.rest_angles), g.sink,
+                                 g.carry)):
             leg_bones[i, r, :n] = arr
-        leg_scal[i] = g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle
+        leg_scal[i] = (g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle,
+                       g.foot_carry, g.tuck_height)
     return leg_int, leg_top, leg_bones, leg_scal

@@ -21,11 +21,12 @@ Packed plan row (:func:`plan_columns`), angles in rad and positions in m:
 Leg constants (:func:`pack_legs`), per leg LF, RF, LH, RH: ``leg_int`` (4, 4 + n_max + 1)
 holds the number of bones n, the pair's upper bone, the top joint's parent,
 whether the post joints are limited (0/1) and the chain's joint indices;
-``leg_top`` (4, 3) the top joint's offset (m); ``leg_bones`` (4, 8, n_max)
+``leg_top`` (4, 3) the top joint's offset (m); ``leg_bones`` (4, 9, n_max)
 the bone lengths (m), rest angles, full-fold angles, lower and upper flexion
-limits (rad), the rest angles' cosines and sines and the full-load sink angles
-(rad); ``leg_scal`` (4, 5) the
-bend sign, pre and post gains, toe angle and rest leg angle (rad).
+limits (rad), the rest angles' cosines and sines, the full-load sink angles and
+the digit's carried fold angles (rad); ``leg_scal`` (4, 7) the bend sign, pre
+and post gains, toe angle, rest leg angle, the foot's carried fold angle (rad)
+and the tuck height (m).
 Conventions as in :mod:`quadsim.kinematics.ik`.
 """
 

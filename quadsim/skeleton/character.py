@@ -498,9 +498,9 @@ def _check_stance(ch: Character, src: str) -> None:
     - A character whose paws roll over their toes (``locomotion.toe_roll_deg``
       above 0) gives each foot a toe tip (its end site) ahead of its joint, at
       least ``MIN_TOE_TIP`` m: the roll pivots on it.
-    - A character whose digits sink under load (``locomotion.fetlock_sink_deg``
-      above 0) has at least two bones below every leg's IK pair (the first, a
-      cannon, and the digit below it).
+    - A character whose digits sink under load or flex in swing
+      (``locomotion.fetlock_sink_deg``, ``digit_flex_deg`` above 0) has at least two
+      bones below every leg's IK pair (the first, a cannon, and the digit below it).
     """
     sk = ch.skeleton
     P = sk.rest_positions
@@ -541,15 +541,16 @@ def _check_stance(ch: Character, src: str) -> None:
     if not ch.body_length > 0.0:
         raise InputError(f"{src}: legs: the fore legs' IK joints must lie ahead (+Z) of the "
                          f"hind legs' at rest; body length {ch.body_length:.4g} m")
-    sink = float(ch.locomotion.get("fetlock_sink_deg", 0.0))
-    if sink > 0.0:
+    for key, does in (("fetlock_sink_deg", "sinks under load"),
+                      ("digit_flex_deg", "flexes in swing")):
+        value = float(ch.locomotion.get(key, 0.0))
         short = [leg.name for leg in ch.legs if len(leg.chain) - 1 < leg.ik_start + 4]
-        if short:
+        if value > 0.0 and short:
             raise InputError(
-                f"{src}: locomotion.fetlock_sink_deg = {sink:g}: a leg's digit (the bones "
-                "below the first one under its IK pair) sinks under load, so every leg needs "
-                f"at least two bones below its pair; legs {', '.join(short)} have fewer: "
-                "give them a digit (fetlock -> pastern -> hoof) or set fetlock_sink_deg = 0")
+                f"{src}: locomotion.{key} = {value:g}: a leg's digit (the bones below the "
+                f"first one under its IK pair) {does}, so every leg needs at least two bones "
+                f"below its pair; legs {', '.join(short)} have fewer: give them a digit "
+                f"(fetlock -> pastern -> hoof) or set {key} = 0")
     roll = float(ch.locomotion.get("toe_roll_deg", 0.0))
     if roll > 0.0:
         short = [leg.name for leg in ch.legs

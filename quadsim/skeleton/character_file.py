@@ -175,6 +175,10 @@ class LocomotionTable(Mapping):
         body's weight (deg), the fetlock sinking through the stance and
         recovering by lift-off (:func:`~quadsim.locomotion.feet.stance_load`);
         0 or absent keeps the digit at its rest angle to the leg.
+    digit_flex_deg : float or None
+        How far each fore leg's digit flexes back behind its cannon in mid-swing
+        (deg), on top of the cannon's fold (a hoof tucks up behind the carpus);
+        0 or absent folds it with its own joint only.
     """
 
     gaits: tuple[str, ...] | None = None
@@ -187,6 +191,7 @@ class LocomotionTable(Mapping):
     head_nod_deg: float | None = None
     toe_roll_deg: float | None = None
     fetlock_sink_deg: float | None = None
+    digit_flex_deg: float | None = None
 
     def __getitem__(self, key: str):
         value = getattr(self, key, None) if key in _LOCOMOTION_KEYS else None
@@ -212,6 +217,7 @@ _LOCOMOTION_RANGES = {
     "head_nod_deg": (0.0, 45.0, True),
     "toe_roll_deg": (0.0, 60.0, True),
     "fetlock_sink_deg": (0.0, 45.0, True),
+    "digit_flex_deg": (0.0, 90.0, True),
 }
 
 
