@@ -107,3 +107,31 @@ def test_leaving_the_standing_state_takes_its_own_transition_time(horse_gaits):
         s = GaitScheduler(horse_gaits, ["walk", "trot"], "walk")
         s.update("trot", 3.0, 1 / 60, period)
         assert s.label == "walk->trot" and s.duration == pytest.approx(want)
+
+
+@pytest.mark.parametrize("gait", ["walk", "trot", "transverse_gallop"])
+def test_the_plans_load_is_a_planted_feet_half_sine_of_the_body_weight(gait):
+    """The plan's ``load`` (what a digit sinks under, ``fetlock_sink_deg``): 0 for a
+    swinging foot; through a stance it rises from near 0 to about ``pi / (8 duty)`` of
+    the body's weight (the peak of a half sine of force that carries a quarter of
+    the weight over a stride) and falls back (``sin^2`` of the way through: a gallop's
+    stance of six frames samples it at a quarter of its peak on its first and last)."""
+    ch = load_character("horse")
+    g = gait_table(ch)[gait]
+    ctl = ProceduralController(ch, dt=1 / 60, gait=gait)
+    plans = [ctl.plan_step(Command(speed=g.preferred_speed, gait=gait)) for _ in range(600)]
+    load = np.array([p["load"] for p in plans[240:]])
+    down = np.array([p["contacts"] for p in plans[240:]])
+    duty = np.array([p["duty"] for p in plans[240:]]).mean()
+    assert (load[~down] == 0.0).all() and (load >= 0.0).all()
+    peak = np.pi / (8.0 * duty)
+    for leg in range(4):
+        edges = np.flatnonzero(np.diff(down[:, leg].astype(int)))
+        for a, b in zip(edges[:-1], edges[1:]):
+            if not down[a + 1, leg]:
+                continue
+            stance = load[a + 1:b + 1, leg]
+            assert stance.max() == pytest.approx(peak, rel=0.08), (leg, stance.max(), peak)
+            assert stance[0] < 0.3 * peak and stance[-1] < 0.3 * peak, stance
+            top = int(np.argmax(stance))
+            assert (np.diff(stance[:top + 1]) > 0).all() and (np.diff(stance[top:]) < 0).all()
