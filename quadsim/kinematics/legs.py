@@ -58,9 +58,9 @@ class LegGeometry:
         where the leg has no digit.
     tuck_height : float
         How high (m) a swinging foot's target must be for its digit to tuck
-        fully (the digit's length: a hoof tucked back hangs its toe below its
-        joint); lower, the tuck is scaled down with the height (0 where the
-        leg has no carry).
+        fully: the digit's length and the foot's to its toe tip (a hoof tucked
+        back hangs its toe below its joint); lower, the tuck is scaled down
+        with the height (0 where the leg has no carry).
     sink : ndarray, shape (n,)
         In-plane angle added to each digit bone (the post bones below the
         first) under a load of the body's weight (rad): ``[locomotion]
