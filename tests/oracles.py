@@ -13,7 +13,8 @@ from quadsim.kinematics.ik import (LIFT_CUTOFF, SWING_LIFT_BAND, SWING_LIFT_FOLD
                                    SWING_PAIR_REACH)
 from quadsim.kinematics.rotations import matrices_about_axis
 from quadsim.locomotion.cpg import TWO_PI, CPGParams
-from quadsim.locomotion.footpath import SWING_KNOTS, SWING_KNOTS_FAST, SWING_KNOTS_WALK
+from quadsim.locomotion.footpath import (SWING_KNOTS, SWING_KNOTS_BOUND, SWING_KNOTS_FAST,
+                                         SWING_KNOTS_WALK)
 
 #: the leg pairs (i, j), i < j, of the coupling terms
 _PAIR_I = np.array([0, 0, 0, 1, 1, 2])
@@ -71,9 +72,10 @@ def cpg_step(theta, r, theta_s, r_s, omega, psi, dt, params: CPGParams | None = 
     return theta, r, theta_s, r_s
 
 
-def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0):
+def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0, bounding=0.0):
     """The swing path at progress ``s``: the Catmull-Rom segment of the knots,
-    the share ``fast`` of them the fast gaits' and ``walk`` the walk's."""
+    the share ``fast`` of them the fast gaits', ``walk`` the walk's and ``bounding``
+    the bounding gaits'."""
     a = np.asarray(liftoff, dtype=float)
     b = np.asarray(touchdown, dtype=float)
     h = np.asarray(height, dtype=float)
@@ -81,7 +83,8 @@ def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0):
     batch = np.broadcast_shapes(a.shape[:-1], b.shape[:-1], h.shape, s.shape)
     f = np.asarray(fast, dtype=float)
     w = np.asarray(walk, dtype=float)
-    batch = np.broadcast_shapes(batch, f.shape, w.shape)
+    r = np.asarray(bounding, dtype=float)
+    batch = np.broadcast_shapes(batch, f.shape, w.shape, r.shape)
     s = np.broadcast_to(np.clip(s, 0.0, 1.0), batch)
     nseg = len(SWING_KNOTS) - 3
     x = s * nseg
@@ -90,6 +93,7 @@ def swing_position(liftoff, touchdown, height, s, fast=0.0, walk=0.0):
     table = np.broadcast_to(SWING_KNOTS, batch + SWING_KNOTS.shape).copy()
     table[..., 0] += f[..., None] * (SWING_KNOTS_FAST[:, 0] - SWING_KNOTS[:, 0])
     table[..., 0] += w[..., None] * (SWING_KNOTS_WALK[:, 0] - SWING_KNOTS[:, 0])
+    table[..., 0] += r[..., None] * (SWING_KNOTS_BOUND[:, 0] - SWING_KNOTS[:, 0])
     k = (i[..., None] + np.arange(4))[..., None]
     knots = np.take_along_axis(table, np.broadcast_to(k, batch + (4, 2)), axis=-2)
     P = (a[..., None, :] + knots[..., :1] * (b - a)[..., None, :]

@@ -106,14 +106,17 @@ def test_the_gaits_by_speed_are_the_characters_own(my_dog):
 
 
 def test_expanded_clips_follow_the_databases_own_law(my_dog):
+    """Within 15 % of the law, or within one frame: a stance is measured in whole frames,
+    and the gallop's spans 4-5 at 60 fps (a frame is 23 % of it)."""
     ch = load_character(my_dog)
     db = load_database(clip_folder(ch), ch)
     player = ClipPlayer(ch, db)
     for g, v in (("walk", 0.6), ("trot", 1.7), ("canter", 2.7), ("rotary_gallop", 4.1)):
         law = gait_law(db, g)
         assert law is db.laws[g]
-        tc = clip_contact_time(player.expanded(g, v))
-        assert abs(tc / float(law.contact_time(v)) - 1) < 0.15, (g, v, tc)
+        clip = player.expanded(g, v)
+        tc, want = clip_contact_time(clip), float(law.contact_time(v))
+        assert abs(tc - want) < max(0.15 * want, 1.0 / clip.motion.fps), (g, v, tc, want)
 
 
 def test_make_controller_steps_the_characters_database(my_dog):

@@ -107,7 +107,8 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
                                                    liftoff)), np.zeros((n, 4)), np.zeros((n, 4)),
                             np.zeros((n, 4)), np.ones((n, 4)))
     z, z4 = np.zeros(n), np.zeros((n, 4))
-    params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, z, z)
+    bound = np.where(np.arange(n) % 3 == 0, 0.0, rng.uniform(0, 1, n))  # some bounding
+    params = B.GaitRows(duty.copy(), z4, z, z, swing_h.copy(), z, bound.copy(), z)
     state = B.PlanState(
         B.MotionState(v.copy(), w.copy(), z, np.zeros((n, 3)), z),
         B.CpgState(theta.copy(), z4, z, z, freq.copy()),
@@ -146,14 +147,16 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     height = np.maximum(np.minimum(swing_h[:, None], 0.35 * step + 0.3 * swing_h[:, None])
                         - 0.5 * lf[..., 1], 0.0)
     # the fast gaits' path from a duty factor of 0.6 down to 0.4, the walk's from
-    # 0.55 up to 0.6 (the duties span both)
-    fast = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)[:, None]
+    # 0.55 up to 0.6 (the duties span both), the fast share split between the fast
+    # and the bounding gaits' paths by the bound
+    quick = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)
+    fast, bounding = (quick * (1 - bound))[:, None], (quick * bound)[:, None]
     walk = np.clip((duty - 0.55) / 0.05, 0.0, 1.0)[:, None]
-    assert (fast == 0).any() and ((fast > 0) & (fast < 1)).any()
+    assert (fast == 0).any() and ((fast > 0) & (fast < 1)).any() and (bounding > 0).any()
     assert (walk == 0).any() and (walk == 1).any() and ((walk > 0) & (walk < 1)).any()
-    want = swing_position(lf, target, height, s, fast, walk)
-    np.testing.assert_allclose(compiled_swing_position(lf, target, height, s, fast, walk),
-                               want, atol=TOL)
+    want = swing_position(lf, target, height, s, fast, walk, bounding)
+    np.testing.assert_allclose(compiled_swing_position(lf, target, height, s, fast, walk,
+                                                       bounding), want, atol=TOL)
     kp2, kh2 = compiled_arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     np.testing.assert_allclose(kp2, kp, atol=1e-9)
     np.testing.assert_allclose(kh2, kh_new, atol=TOL)

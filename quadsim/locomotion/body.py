@@ -64,6 +64,12 @@ MAX_HEAVE = 0.2
 PITCH_TORQUE = 1.2
 PITCH_HOLD_PER_STRIDE = 0.6
 PITCH_DAMPING = 0.5
+#: In flight (no foot down) the spring and damper hold the pitch by this fraction
+#: of their strength: nothing but the trunk's own stiffness turns it back to level
+#: (at full strength the horse's gallops, their trunks turning nose-down about the
+#: centre in flight, fell at 0.70 g, the pelvis at 0.3 and the withers at 1.1; with
+#: none, the cubs' and dog's canters at up to 1.32 g).
+FLIGHT_PITCH_HOLD = 0.5
 #: The flexing gaits (walk, trot, pace) rock by this fraction of it.
 FLEX_ROCK = 0.4
 #: The rocking is at most this (rad) either way.
@@ -90,7 +96,12 @@ LAND_ACCEL = 0.5 * GRAVITY
 #: trot's flights at -0.15 g). Through a change between the two the guidance
 #: comes in and goes out with the bound, weighted by ``1 - bound`` (switched on
 #: at half of it, the cap dropped the horse's pelvis 206 mm in one frame of a
-#: canter -> trot).
+#: canter -> trot). In every gait, though, the fore girdle is guided while one
+#: fore foot is planted: in the gallops the second fore foot lands a few frames
+#: after the first, and the shoulders, vaulting up over the first, had risen out
+#: of its reach: the leg locked straight before it landed and snapped bent on
+#: the landing frame (the leopard's rotary gallop: the shoulders up 88 mm in
+#: four frames, then 37 mm down in one, the elbow at 2,986 deg/s).
 #: ... and no lower than a planted fore foot at this fraction of its leg's reach
 #: allows: the fore girdle lowered further pitched the trunk nose-down over the
 #: planted hind legs, whose stifles passed their limit (the horse's rack: 72
@@ -234,8 +245,9 @@ def body_rows(body, state, scratch, reach, sc, out):
         z[n, 0] = min(max(z[n, 0] + w[n, 0] * dt, -MAX_HEAVE * h), MAX_HEAVE * h)
         wp = 2.0 * math.pi * PITCH_HOLD_PER_STRIDE * f
         torque = PITCH_TORQUE * (bound + FLEX_ROCK * (1.0 - bound))
+        hold = 1.0 if held else FLIGHT_PITCH_HOLD
         w[n, 1] += (torque * fore_hind / body.body_length[n]
-                    - (wp * wp * z[n, 1] + 2.0 * PITCH_DAMPING * wp * w[n, 1]) * dt)
+                    - hold * (wp * wp * z[n, 1] + 2.0 * PITCH_DAMPING * wp * w[n, 1]) * dt)
         z[n, 1] = min(max(z[n, 1] + w[n, 1] * dt, -MAX_ROCK), MAX_ROCK)
         # vaulting: each girdle drops as far as its planted feet need (the
         # girdles' headings' cosines and sines taken once)
@@ -277,18 +289,19 @@ def body_rows(body, state, scratch, reach, sc, out):
         # and no higher than its landing feet will let it be (LAND_ACCEL), the
         # fore girdle no lower for it than its planted feet allow (CROUCH_REACH)
         guided = 1.0 - bound if held else 0.0
+        guided_f = max(guided, bound) if stance[n, 0] or stance[n, 1] else guided
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
                               flex, 0.0)
         cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,
                                     dropped_f, flex, tilt_f)
         rise_h = min(mid - half, cap_h)
         rise_f = min(mid + half, cap_f)
-        if guided > 0.0:
+        if guided_f > 0.0:
             land_h = _landing_cap(n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0)
             land_f = max(floor_f, _landing_cap(n, 1, 0, 1, state.feet, scratch, reach,
                                                dropped_f, flex, tilt_f))
             rise_h -= guided * max(rise_h - land_h, 0.0)
-            rise_f -= guided * max(rise_f - land_f, 0.0)
+            rise_f -= guided_f * max(rise_f - land_f, 0.0)
         if rise_h < mid - half or rise_f < mid + half:
             # the planted legs hold the trunk down: its centre is where they let it
             # be (it would jump up by the whole cap at lift-off); its rate goes on

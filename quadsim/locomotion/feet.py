@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from quadsim.locomotion.footpath import fast_share, swing_into, walk_share
+from quadsim.locomotion.footpath import bound_share, fast_share, swing_into, walk_share
 from quadsim.locomotion.rowmath import MIN_SWING, frac, plan_inner
 from quadsim.locomotion.turning import arc_step
 
@@ -172,6 +172,7 @@ def feet_rows(state, scratch, reach, sc, out):
                 swing_s[n, i] = max(swing_s[n, i], sp)
         fast = fast_share(dn, state.schedule.params.bound[n])  # the fast gaits' swing path
         walk = walk_share(dn)  # and the walk's
+        bounding = bound_share(dn, state.schedule.params.bound[n])  # and the bounding gaits'
         lead = min(LEAD_STANCE_FRACTION * stance_time,
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
@@ -237,7 +238,8 @@ def feet_rows(state, scratch, reach, sc, out):
             x = 1.0 - s
             out.toe[n, i] = TOE_PER_FOLD * math.sin(math.pi * s) ** 2 \
                 - ft.toe_lo[n, i] * x * x * (3.0 - 2.0 * x)
-            swing_into((ax, ay, az), (tx, 0.0, tz), height, s, fast, walk, feet, n, i)
+            swing_into((ax, ay, az), (tx, 0.0, tz), height, s, fast, walk, bounding, feet,
+                       n, i)
             # how far the touchdown point will be from the leg's top joint then
             # (the body stage lowers the trunk ahead of a landing out of its reach)
             t_td = max((theta_td[n, i] - theta[n, i]) / rate, 0.0)
