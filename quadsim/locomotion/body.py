@@ -97,7 +97,8 @@ LAND_ACCEL = 0.5 * GRAVITY
 #: comes in and goes out with the bound, weighted by ``1 - bound`` (switched on
 #: at half of it, the cap dropped the horse's pelvis 206 mm in one frame of a
 #: canter -> trot). In every gait, though, the fore girdle is guided while one
-#: fore foot is planted: in the gallops the second fore foot lands a few frames
+#: fore foot is planted (through a change weighted by the larger of ``bound`` and
+#: ``1 - bound``): in the gallops the second fore foot lands a few frames
 #: after the first, and the shoulders, vaulting up over the first, had risen out
 #: of its reach: the leg locked straight before it landed and snapped bent on
 #: the landing frame (the leopard's rotary gallop: the shoulders up 88 mm in

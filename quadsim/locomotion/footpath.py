@@ -95,7 +95,7 @@ assert np.array_equal(SWING_KNOTS_FAST[:, 1], SWING_KNOTS[:, 1])
 #: touchdown point from less far ahead. On the slow path a galloping foot,
 #: still at 0.93 of its step three quarters into the swing while the body
 #: covers three quarters of a step a swing, had gone 0.12 of the step past its
-#: touchdown point (the horse's fore hoof about 0.65 m, beyond its leg's reach)
+#: touchdown point (now 0.09; the horse's fore hoof about 0.65 m, beyond its leg's reach)
 #: and came back onto it with the leg locking straight, then snapping bent: the
 #: horse's gallops turned their elbows at 3,681-4,070 deg/s, now 3,286-3,382;
 #: the leopard's rotary gallop 3,135 -> 2,353, the leopard cub's 3,315 -> 2,979.
