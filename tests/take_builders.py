@@ -10,6 +10,8 @@ writes either as BVH.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from quadsim.commands import Command, Script
@@ -25,7 +27,14 @@ SEGMENT = 4.0
 
 
 def take(character, plan, segment: float = SEGMENT, fps: float = FPS) -> Motion:
-    """The procedural motion through ``plan`` [(gait, speed m/s), ...], ``segment`` s each."""
+    """The procedural motion through ``plan`` [(gait, speed m/s), ...], ``segment`` s each,
+    its feet kept flat through the stance (``[locomotion] toe_roll_deg`` off, as the horse's
+    clips are baked): `clips-from` finds a take's contacts at the foot joints, which a paw
+    rolling over its toes lifts through the last part of its stance (a walk was then not
+    found)."""
+    if hasattr(character, "locomotion"):
+        character = replace(character, locomotion=replace(character.locomotion,
+                                                          toe_roll_deg=None))
     script = Script(tuple(segment * i for i in range(len(plan))),
                     tuple(Command(speed=v, gait=g) for g, v in plan))
     return simulate(character, script, segment * len(plan), fps)

@@ -77,8 +77,9 @@ def test_the_canter_is_not_quicker_in_cadence_than_the_gallop(character):
 
 
 def test_the_dog_cub_trots_with_a_dogs_duty_factor():
+    """Measured at the toe tips (its paws roll over them at push-off, the joints rising)."""
     m, _ = _steady("dog_cub", "trot")
     m = m.time_slice(START, SECONDS + 1.0)
-    feet = m.foot_positions()
+    feet = m.contact_points()
     duty = M.duty_factors(M.foot_contacts(feet, FPS), FPS, feet)
     assert all(0.30 <= d <= 0.40 for d in duty), duty
