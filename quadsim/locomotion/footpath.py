@@ -134,19 +134,26 @@ def walk_share(duty: float) -> float:
 
 
 @njit(cache=True, inline="always")
+def quick_share(duty: float) -> float:
+    """How far a gait of duty factor ``duty`` is from the slow path towards the quick
+    gaits' knots: 0 at :data:`SLOW_DUTY` and above, 1 at :data:`FAST_DUTY` and below."""
+    return min(max((SLOW_DUTY - duty) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0)
+
+
+@njit(cache=True, inline="always")
 def fast_share(duty: float, bound: float) -> float:
     """How much of :data:`SWING_KNOTS_FAST` a swing takes in a gait of duty factor
-    ``duty`` that bounds by ``bound`` (0 to 1): 0 at :data:`SLOW_DUTY` and above,
-    1 at :data:`FAST_DUTY` and below, times ``1 - bound`` (the feet stage's, compiled)."""
-    return min(max((SLOW_DUTY - duty) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0) * (1.0 - bound)
+    ``duty`` that bounds by ``bound`` (0 to 1): :func:`quick_share` times
+    ``1 - bound`` (the feet stage's, compiled)."""
+    return quick_share(duty) * (1.0 - bound)
 
 
 @njit(cache=True, inline="always")
 def bound_share(duty: float, bound: float) -> float:
     """How much of :data:`SWING_KNOTS_BOUND` a swing takes in a gait of duty factor
-    ``duty`` that bounds by ``bound`` (0 to 1): ``bound`` times the share
-    :func:`fast_share` would take without it (the feet stage's, compiled)."""
-    return min(max((SLOW_DUTY - duty) / (SLOW_DUTY - FAST_DUTY), 0.0), 1.0) * bound
+    ``duty`` that bounds by ``bound`` (0 to 1): :func:`quick_share` times ``bound``
+    (the feet stage's, compiled)."""
+    return quick_share(duty) * bound
 
 
 def swing_control_points(liftoff: np.ndarray, touchdown: np.ndarray,
