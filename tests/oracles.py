@@ -116,7 +116,7 @@ def arc_advance(position, heading, speed, yaw_rate, tau):
 
 
 # ------------------------------------------------------------ leg IK
-def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None):
+def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None, height=0.0):
     """Solve the two-bone pair in place in ``phi`` given the pre and post bones.
 
     The pair runs from Q (below the pre bones) to C (the target less the
@@ -145,14 +145,19 @@ def _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift=None):
                       vd + lift * (eased - vd), vd)
     r_true = np.hypot(vd, vf)
     # np.minimum(np.maximum(...)) is np.clip without its per-call overhead
-    r = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), 0.998 * (l1 + l2) - 1e-6)
+    r0 = np.minimum(np.maximum(r_true, np.abs(l1 - l2) + 1e-6), 0.998 * (l1 + l2) - 1e-6)
+    # a swinging foot is not drawn so close that the middle joint passes its limit
+    # (by no more than the target's ``height`` is above a tenth of the pair's span)
+    room = np.maximum(height - 0.1 * (l1 + l2), 0.0)
+    r = r0 if lift is None else np.where(
+        lift > 0.0, np.maximum(r0, np.minimum(geom.pair_min_span, r_true + room)), r0)
     gam = np.arctan2(vf, vd)
     cos_delta = np.minimum(np.maximum((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     phi[..., k0] = gam + geom.bend * np.arccos(cos_delta)
     bd = qd + l1 * np.cos(phi[..., k0])
     bf = qf + l1 * np.sin(phi[..., k0])
     phi[..., k0 + 1] = np.arctan2(qf + r * np.sin(gam) - bf, qd + r * np.cos(gam) - bd)
-    return np.abs(r_true - r)
+    return np.abs(r_true - r0)
 
 
 def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
@@ -232,7 +237,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
                        + geom.fold[..., k] * fold + geom.sink[..., k] * np.asarray(load))
     lift = None if foot_yaw is None else np.broadcast_to(
         np.minimum(fold / SWING_LIFT_FOLD, 1.0), batch)
-    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)
+    reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift, tgt[..., 1])
     # keep the post joints inside their limits relative to the bone above,
     # then solve the pair again for the moved post bones (twice: the second
     # pass corrects the small change the re-solved pair makes)
@@ -241,7 +246,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
             rel = (A0[..., k] - phi[..., k]) - (A0[..., k - 1] - phi[..., k - 1])
             rel = np.minimum(np.maximum(rel, geom.lower[..., k]), geom.upper[..., k])
             phi[..., k] = A0[..., k] - (A0[..., k - 1] - phi[..., k - 1]) - rel
-        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift)
+        reached = _solve_pair(geom, phi, qd, qf, down_t, fwd_t, lift, tgt[..., 1])
 
     # the digit (and the foot) drawn folded further with the fold, as far as the target is
     # up, which the pair does not make up for

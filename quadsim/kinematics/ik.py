@@ -67,6 +67,11 @@ PAIR_REACH = 0.998
 #: is lifted in the leg's plane rather than reached for with a straight leg
 #: (which locked it, then snapped it back at touchdown) ...
 SWING_PAIR_REACH = 0.985
+#: A swinging foot's pair is not folded past its middle joint's flexion limit
+#: (:attr:`~quadsim.kinematics.legs.LegGeometry.pair_min_span`): the foot is drawn
+#: out along the pair's line instead, by no more than its target is above this
+#: fraction of the pair's span.
+SPAN_CLEAR = 0.1
 #: ... eased in over this fraction of ``l1 + l2`` (a soft minimum), and over
 #: the first and last frames of the swing, until its fold reaches this (the
 #: fold is ``sin^2(pi s)``: about the first and last 7 % of the swing; lifted
@@ -85,7 +90,7 @@ _inner_nrt_free = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=Fals
 
 
 @_inner_nrt_free
-def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
+def _solve_pair(l1, l2, bend, qd, qf, cd, cf, r_min):
     """The two-bone pair of lengths ``l1``, ``l2`` from Q = (``qd``, ``qf``)
     towards C = (``cd``, ``cf``), the target less the post bones, by the law
     of cosines, as cosines and sines.
@@ -96,12 +101,14 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     sines: those of the direction to C (``gam``) and of the bend (``bend *
     delta``, its sine from its cosine for a bend of +-1) give the upper
     bone's as those of a sum (equal to rounding); the upper bone's angle
-    itself is never needed.
+    itself is never needed. The span is at least ``r_min`` (a swinging foot's:
+    the middle joint inside its flexion limit), by design not a miss.
     """
     vd = cd - qd
     vf = cf - qf
     r_true = math.sqrt(vd * vd + vf * vf)
-    r = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), PAIR_REACH * (l1 + l2) - PAIR_SLACK)
+    r0 = min(max(r_true, abs(l1 - l2) + PAIR_SLACK), PAIR_REACH * (l1 + l2) - PAIR_SLACK)
+    r = max(r0, r_min)
     cg, sg = _direction(vd, vf, r_true)  # (cos, sin) of gam = atan2(vf, vd)
     cos_delta = min(max((l1 * l1 + r * r - l2 * l2) / (2.0 * l1 * r), -1.0), 1.0)
     if bend == 1.0 or bend == -1.0:  # (cos, sin) of bend * acos(cos_delta)
@@ -116,7 +123,7 @@ def _solve_pair(l1, l2, bend, qd, qf, cd, cf):
     x = qd + r * cg - (qd + l1 * c0)
     y = qf + r * sg - (qf + l1 * s0)
     c1, s1 = _direction(x, y, math.sqrt(x * x + y * y))
-    return c0, s0, c1, s1, x, y, abs(r_true - r)
+    return c0, s0, c1, s1, x, y, abs(r_true - r0)
 
 
 @_inner_nrt_free
@@ -314,10 +321,17 @@ def leg_rows(plan, cols, a, b, legs, G, positions, local, err, work):
                     cf += leg_bones[i, 0, k] * sphi[k]
                 tx = down_t - cd
                 ty = fwd_t - cf
-                if HEAD >= 0 and plan[t, FOLD + i] > 0.0:  # swinging: lifted, not locked
-                    wl = min(plan[t, FOLD + i] / SWING_LIFT_FOLD, 1.0)
+                r_min = 0.0
+                if HEAD >= 0 and plan[t, FOLD + i] > 0.0:  # swinging: lifted, not locked,
+                    wl = min(plan[t, FOLD + i] / SWING_LIFT_FOLD, 1.0)  # nor over-flexed
                     tx = tx + wl * (_lifted(tx - qd, ty - qf, l1 + l2) + qd - tx)
-                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf, tx, ty)
+                    r_min = leg_scal[i, 7]
+                    # (pushed out no further than the target is above SPAN_CLEAR of the
+                    # pair's span: a foot low in its swing is not driven into the ground)
+                    r_min = min(r_min, math.sqrt((tx - qd) * (tx - qd) + (ty - qf) * (ty - qf))
+                                + max(plan[t, FEET + 3 * i + 1] - SPAN_CLEAR * (l1 + l2), 0.0))
+                c0, s0, c1, s1, x, y, reached = _solve_pair(l1, l2, bend, qd, qf, tx, ty,
+                                                            r_min)
                 cphi[k0], sphi[k0], cphi[k0 + 1], sphi[k0 + 1] = c0, s0, c1, s1
                 if limited:
                     phi[k0 + 1] = math.atan2(y, x)

@@ -104,6 +104,23 @@ class LegGeometry:
         return bool(np.any(np.isfinite(self.lower[..., self.pair + 2:]))
                     or np.any(np.isfinite(self.upper[..., self.pair + 2:])))
 
+    @cached_property
+    def pair_min_span(self) -> float:
+        """Shortest span (m) of the two-bone pair with its middle joint (``chain[pair
+        + 1]``) inside its flexion limit, bent the way the pair bends (0 where that
+        joint has no limit on that side). A swinging foot is not drawn closer."""
+        k = self.pair
+        l1, l2 = float(self.lengths[k]), float(self.lengths[k + 1])
+        # the lower bone's in-plane angle from the upper's at a rotation rel of the
+        # middle joint; the pair bent by ``bend`` turns it by a sign of -bend
+        turns = [(self.rest_angles[k + 1] - self.rest_angles[k]) - rel
+                 for rel in (self.lower[k + 1], self.upper[k + 1]) if np.isfinite(rel)]
+        turns = [abs(d) for d in turns if d * -self.bend > 0.0]
+        if not turns:
+            return 0.0
+        d = min(max(turns), math.pi)
+        return float(math.sqrt(max(l1 * l1 + l2 * l2 + 2.0 * l1 * l2 * math.cos(d), 0.0)))
+
     @property
     def n_bones(self) -> int:
         return self.lengths.shape[-1]
@@ -182,15 +199,15 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     offset (m); ``leg_bones`` (L, 8, n_max) the bone lengths (m), rest
     angles, full-fold angles, lower and upper flexion limits (rad), the
     rest angles' cosines and sines, the full-load sink angles and the drawn
-    digit's carried fold angles (rad); ``leg_scal`` (L, 7) the bend sign, pre
+    digit's carried fold angles (rad); ``leg_scal`` (L, 8) the bend sign, pre
     and post gains, toe angle, rest leg angle, the foot's carried fold angle
-    (rad) and the tuck height (m).
+    (rad), the tuck height (m) and the pair's shortest span in swing (m).
     """
     n_max = max(g.n_bones for g in legs)
     leg_int = np.zeros((len(legs), 4 + n_max + 1), dtype=np.int64)
     leg_top = np.zeros((len(legs), 3))
     leg_bones = np.zeros((len(legs), 9, n_max))
-    leg_scal = np.zeros((len(legs), 7))
+    leg_scal = np.zeros((len(legs), 8))
     for i, g in enumerate(legs):
         n = g.n_bones
         leg_int[i, :4] = n, g.pair, g.parent, int(g.limited)
@@ -201,5 +218,5 @@ def pack_legs(legs) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
                                  g.carry)):
             leg_bones[i, r, :n] = arr
         leg_scal[i] = (g.bend, g.pre_gain, g.post_gain, g.toe_angle, g.rest_leg_angle,
-                       g.foot_carry, g.tuck_height)
+                       g.foot_carry, g.tuck_height, g.pair_min_span)
     return leg_int, leg_top, leg_bones, leg_scal

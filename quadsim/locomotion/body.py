@@ -79,8 +79,17 @@ MAX_ROCK = 0.35
 PITCH_FROM_FLEX = 0.16
 
 
-#: A planted foot is kept within this fraction of its leg's reach.
+#: A planted foot is kept within this fraction of its leg's reach ...
 STANCE_REACH = 0.97
+#: ... from this fraction at its touchdown, eased down (as the square of the time
+#: left) over this long (s): the landing leg gives under the body, which no longer
+#: drops onto it in one frame (the horse, landing out of a long flight in a
+#: rotary gallop -> trot, dropped its pelvis 78 mm in one frame, 35 g; now 52 mm;
+#: the leopard's rotary gallop's peak joint speed 2,341 -> 2,106 deg/s). Guided
+#: onto the landing at this reach too, the girdles came down later and the horse's
+#: change dropped 78 mm again.
+LANDING_REACH = 0.99
+LANDING_EASE = 0.05
 #: Landings in the flexing gaits: a swinging foot's touchdown point caps its
 #: girdle ahead of the landing, by the cap it will set then (:func:`_reach_cap`)
 #: raised by half this acceleration (m/s^2) times the square of the time left.
@@ -111,17 +120,44 @@ CROUCH_REACH = 0.86
 #: A girdle meets the cap of its planted or landing feet rounded over this
 #: fraction of the hip height (:func:`smooth_min`): its rate has no kink.
 CAP_ROUNDING = 0.02
+#: In the bounding gaits the fore girdle is also guided while a hind foot alone
+#: is down, coming in over the last this fraction of a stride before its first
+#: fore foot lands (smoothly: at full weight at once the shoulders dropped by the
+#: whole difference on a hind landing frame, the gallops' jolts at 30-40 g).
+#: Without it the shoulders, carried along by the trunk's rocking, met the landing
+#: cap only on the fore landing frame: the horse's withers dropped 82 mm in one
+#: frame of its transverse gallop and the landing elbow bent 55 degrees (3,308
+#: deg/s; now 2,588). Over 0.15 of a stride the horse's rotary gallop kept 3,050,
+#: over 0.4 the leopard cub's canter went 1,779 -> 2,288.
+FORE_GUIDE_STRIDES = 0.25
+#: In the gaits that do not bound the guidance comes back in over this fraction of
+#: a stride after a flight, and before a girdle's own landing by the share of the
+#: time gone since the flight ended (``since / (since + tau)``): switched fully on
+#: at the first touchdown after a flight, the other girdle dropped onto its landing
+#: cap in one frame (the horse's pelvis 123 mm slowing from a gallop to a walk,
+#: 48 g). ``MAX_FOOTING`` (s) caps the time kept since the last flight.
+FOOTING_STRIDES = 0.25
+MAX_FOOTING = 10.0
+#: ... and lowers a girdle by at most this many hip heights a second: a touchdown
+#: point re-planned for the walk, its longer stance asked for in the middle of a
+#: swing, moved its girdle's landing cap 72 mm in one frame, and a flight then
+#: released it (52 g, now 24; the bounding fore guidance above is not so limited).
+#: The swinging feet's vaulting drops (:func:`body_rows`) come in with the guidance,
+#: over the last :data:`FORE_GUIDE_STRIDES` of a swing: on its landing frame a
+#: foot's drop took the withers 26 mm down at once (the horse's walk, 8.6 g; now 3.5).
+GUIDE_DESCENT = 1.0
 
 
 @plan_inner
-def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt):
+def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt, since):
     """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
     (``dropped`` m below standing) with its planted feet ``left``, ``right``
     within :data:`STANCE_REACH` of their legs' reach (infinite with none
     planted): each leg's top over the ground point of its key and offsets,
     lifted by the spine's flexion ``flex`` (rad) and by ``tilt`` (m, the
     trunk's pitch with the flexion); ``ft`` is the feet state, ``c``, ``sn``
-    the cosine and sine of the girdle's key heading. Also the least rise that
+    the cosine and sine of the girdle's key heading; ``since`` (N, 4) the time (s)
+    since each foot landed (:data:`LANDING_REACH`). Also the least rise that
     keeps them within :data:`CROUCH_REACH` (minus infinity with none planted):
     ``(cap, floor)``."""
     cap, floor = math.inf, -math.inf
@@ -132,7 +168,8 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
         ox, oz = reach.foot_offset[n, i, 0], reach.top_ahead[n, i]
         dx = fx - (keys[n, g, 0] + c * ox + sn * oz)
         dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
-        r = STANCE_REACH * reach.radius[n, i]
+        e = max(1.0 - since[n, i] / LANDING_EASE, 0.0)
+        r = (STANCE_REACH + (LANDING_REACH - STANCE_REACH) * e * e) * reach.radius[n, i]
         top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
         cap = min(cap, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
         r = CROUCH_REACH * reach.radius[n, i]
@@ -169,6 +206,17 @@ def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt):
         top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
         cap = min(cap, high - top + 0.5 * LAND_ACCEL * tau * tau)
     return cap
+
+
+@plan_inner
+def _next_landing(n, td_tau, first):
+    """Time (s) to the first touchdown of row ``n``'s swinging feet ``first`` and
+    ``first + 1`` (``td_tau``, negative when planted); infinite with none swinging."""
+    tau = math.inf
+    for i in range(first, first + 2):
+        if td_tau[n, i] >= 0.0:
+            tau = min(tau, td_tau[n, i])
+    return tau
 
 
 @plan_inner
@@ -258,9 +306,12 @@ def body_rows(body, state, scratch, reach, sc, out):
             c, sn = (c1, s1) if g else (c0, s0)
             along = ahead_of_mid(keys, reach.foot_offset, feet, n, i, c0, s0, c1, s1)
             need[n, i] = 0.0
-            if stance[n, i]:  # np.interp(x, sweep_cols[n, i], drops)
-                need[n, i] = interp_leg(abs(along) / sc.reach_margin, reach.drops,
-                                     reach.sweep_cols, n, i)
+            tau = scratch.td_tau[n, i]
+            near = 1.0 if stance[n, i] else (1.0 - bound) * min(max(
+                1.0 - tau * f / FORE_GUIDE_STRIDES, 0.0), 1.0) if tau >= 0.0 and held else 0.0
+            if near > 0.0:  # np.interp(x, sweep_cols[n, i], drops)
+                need[n, i] = near * near * (3.0 - 2.0 * near) * interp_leg(
+                    abs(along) / sc.reach_margin, reach.drops, reach.sweep_cols, n, i)
             # the foot in its girdle's frame, for the sway: turned by -heading,
             # whose cosine is c and sine -sn
             fx, fz = feet[n, i, 0] - keys[n, g, 0], feet[n, i, 2] - keys[n, g, 2]
@@ -289,20 +340,39 @@ def body_rows(body, state, scratch, reach, sc, out):
         dropped_h, dropped_f = pelvis * drops_now[n, 0], pelvis * drops_now[n, 1]
         # and no higher than its landing feet will let it be (LAND_ACCEL), the
         # fore girdle no lower for it than its planted feet allow (CROUCH_REACH)
-        guided = 1.0 - bound if held else 0.0
-        guided_f = max(guided, bound) if stance[n, 0] or stance[n, 1] else guided
+        # (after a flight the guidance comes in over FOOTING_STRIDES of a stride)
+        since = min(bs.footing[n] + dt, MAX_FOOTING) if held else 0.0
+        bs.footing[n] = since
+        e = min(since * f / FOOTING_STRIDES, 1.0)
+        footing = e * e * (3.0 - 2.0 * e)
+        tau_h = _next_landing(n, scratch.td_tau, 2)
+        tau_f = _next_landing(n, scratch.td_tau, 0)
+        prog_h = since / (since + tau_h) if since > 0.0 else 0.0
+        prog_f = since / (since + tau_f) if since > 0.0 else 0.0
+        guided = (1.0 - bound) * max(footing, prog_h)
+        guided_f = (1.0 - bound) * max(footing, prog_f)
+        if stance[n, 0] or stance[n, 1]:
+            bounding_f = bound
+        else:
+            e = min(max(1.0 - tau_f * f / FORE_GUIDE_STRIDES, 0.0), 1.0)
+            bounding_f = bound * min(e * e * (3.0 - 2.0 * e), prog_f)
+        for i in range(4):  # (the drops are taken: ``need`` now holds the time since landing)
+            need[n, i] = (state.cpg.theta[n, i] - state.feet.theta_td[n, i]) / (TWO_PI * f)
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
-                              flex, 0.0)
+                              flex, 0.0, need)
         cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,
-                                    dropped_f, flex, tilt_f)
+                                    dropped_f, flex, tilt_f, need)
         rise_h = min(mid - half, cap_h)
         rise_f = min(mid + half, cap_f)
-        if guided_f > 0.0:
+        if guided > 0.0 or guided_f > 0.0 or bounding_f > 0.0:
             land_h = _landing_cap(n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0)
             land_f = max(floor_f, _landing_cap(n, 1, 0, 1, state.feet, scratch, reach,
                                                dropped_f, flex, tilt_f))
-            rise_h -= guided * max(rise_h - land_h, 0.0)
-            rise_f -= guided_f * max(rise_f - land_f, 0.0)
+            step = GUIDE_DESCENT * h * dt
+            over_h, over_f = max(rise_h - land_h, 0.0), max(rise_f - land_f, 0.0)
+            rise_h = min(rise_h, max(rise_h - guided * over_h, bs.rise[n, 0] - step))
+            rise_f = min(rise_f, max(rise_f - guided_f * over_f, bs.rise[n, 1] - step),
+                         rise_f - bounding_f * over_f)
         if rise_h < mid - half or rise_f < mid + half:
             # the planted legs hold the trunk down: its centre is where they let it
             # be (it would jump up by the whole cap at lift-off); its rate goes on

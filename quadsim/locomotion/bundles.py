@@ -184,6 +184,7 @@ class BodyState(NamedTuple):
     heave_rate: np.ndarray    #: (N, 2) their rates (m/s, rad/s)
     base_height: np.ndarray   #: pelvis height the drops set, after their filter (m)
     rise: np.ndarray          #: (N, 2) hind and fore girdles' rise over the drops (m)
+    footing: np.ndarray       #: time since the last flight ended (s; 0 in flight)
 
 
 class PlanState(NamedTuple):

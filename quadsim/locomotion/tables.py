@@ -20,6 +20,7 @@ import numpy as np
 from quadsim.frames import Y
 from quadsim.kinematics.ik import solve_leg
 from quadsim.kinematics.rotations import matrices_yaw_pitch
+from quadsim.locomotion.body import MAX_FOOTING
 from quadsim.locomotion.bundles import (
     BodyConstants,
     BodyState,
@@ -247,7 +248,8 @@ class CharacterPlan:
             BodyState(np.zeros(1), np.zeros(1), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]),
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
-                      np.array([float(self.body.pelvis_height[0])]), np.zeros((1, 2))))
+                      np.array([float(self.body.pelvis_height[0])]), np.zeros((1, 2)),
+                      np.full(1, MAX_FOOTING)))
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
