@@ -97,9 +97,10 @@ assert np.array_equal(SWING_KNOTS_FAST[:, 1], SWING_KNOTS[:, 1])
 #: covers three quarters of a step a swing, had gone 0.12 of the step past its
 #: touchdown point (now 0.09; the horse's fore hoof about 0.65 m, beyond its leg's reach)
 #: and came back onto it with the leg locking straight, then snapping bent: the
-#: horse's gallops turned their elbows at 3,681-4,070 deg/s, now 3,308-3,310;
+#: horse's gallops turned their elbows at 3,681-4,070 deg/s, then 3,308-3,310;
 #: the leopard's rotary gallop 3,135 -> 2,341, the leopard cub's 3,315 -> 2,957
-#: (with the fore girdle guided onto a second fore foot's landing, body.py).
+#: (with the fore girdle guided onto a second fore foot's landing, body.py; with
+#: the first's guided too, and landing legs that give, 2,576-2,589, 2,106, 2,814).
 #: At 0.88 (the fast path's) the horse's fell further (3,000-3,042) but the cubs'
 #: and the dog's feet landed at 0.30-0.31 of the body's speed (from 0.18-0.27);
 #: the fast path's earlier knots too bent the horse's elbow past its limit
