@@ -30,7 +30,7 @@ def _rows(character: str, mode: str) -> tuple:
 GROUPS = [("leopard", "procedural"), ("leopard_cub", "procedural"), ("dog_cub", "procedural"),
           ("horse", "procedural"), ("horse", "data")]
 FIGURES = ["peak_joint_speed_deg_s", "touchdown_speed_ratio_p90", "liftoff_speed_ratio_p90",
-           "toe_below_ground_mm", "toe_slide_mm_p90", "elbow_knee_locked_fraction"]
+           "toe_below_ground_any_frame_mm", "toe_slide_mm_p90", "elbow_knee_locked_fraction"]
 
 #: Known gaps (strict: the mark goes once every pair is within the bound), measured:
 #: the worst pair's figure and how many pairs are within.
@@ -41,6 +41,7 @@ KNOWN = {
     ("horse", "procedural", "peak_joint_speed_deg_s"): "2,605 deg/s (pace -> transverse); 31/56",
     ("horse", "data", "peak_joint_speed_deg_s"): "2,667 deg/s (gallop -> rack); 27/30",
     ("horse", "data", "touchdown_speed_ratio_p90"): "0.37 (gallop -> trot); 26/30",
+    ("horse", "data", "toe_below_ground_any_frame_mm"): "3.1 mm (trot -> gallop); 29/30",
 }
 
 

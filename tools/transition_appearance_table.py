@@ -36,10 +36,11 @@ import numpy as np
 #: 0.3 and lift-off 0.6 of the body speed, toe tip 3 mm deep, slide 5 mm, elbows and
 #: knees straight in under 5 % of swing frames.
 BOUNDS = {"peak_joint_speed_deg_s": 2000.0, "touchdown_speed_ratio_p90": 0.3,
-          "liftoff_speed_ratio_p90": 0.6, "toe_below_ground_mm": 3.0,
+          "liftoff_speed_ratio_p90": 0.6, "toe_below_ground_any_frame_mm": 3.0,
           "toe_slide_mm_p90": 5.0, "elbow_knee_locked_fraction": 0.05}
 SHORT = {"peak_joint_speed_deg_s": ("w max", ".0f"), "touchdown_speed_ratio_p90": ("td", ".2f"),
-         "liftoff_speed_ratio_p90": ("lo", ".2f"), "toe_below_ground_mm": ("toe-", ".1f"),
+         "liftoff_speed_ratio_p90": ("lo", ".2f"),
+         "toe_below_ground_any_frame_mm": ("toe-", ".1f"),
          "toe_slide_mm_p90": ("slide", ".1f"), "elbow_knee_locked_fraction": ("ek", ".3f")}
 #: Seconds in the old gait before the request (plus the pair's step through the stride).
 BEFORE = 4.0

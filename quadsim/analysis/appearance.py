@@ -224,7 +224,8 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         ``stride_over_h`` and ``alexander_over_h`` (medians), ``cadence``
         (scaled), ``froude``, ``trunk_pitch_range_deg``,
         ``trunk_heave_over_h``, ``spine_flexion_range_deg``,
-        ``head_pitch_range_deg``, ``toe_below_ground_mm`` (deepest),
+        ``head_pitch_range_deg``, ``toe_below_ground_mm`` (deepest in stance),
+        ``toe_below_ground_any_frame_mm`` (deepest on any frame, swing included),
         ``toe_slide_mm_p90``, ``touchdown_speed_ratio_p90``,
         ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
         per flight phase; -1 is a ballistic fall), ``trunk_jolt_g`` (the pelvis's
@@ -449,6 +450,10 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
 
     # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
     below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
+    # and the toe tips on every frame: a swinging toe that dips under the ground does not
+    # stand still, so it is no contact and the contacts' figure cannot see it
+    tips_y = s["toes"][..., Y]
+    anywhere = max(-float(tips_y.min()), 0.0) if tips_y.size else None
 
     # flight: no foot down
     found = np.empty(T)
@@ -489,6 +494,7 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         "hip_height": h,
         **strides,
         "toe_below_ground_mm": 1000.0 * float(below.max()) if below.size else None,
+        "toe_below_ground_any_frame_mm": None if anywhere is None else 1000.0 * anywhere,
         "toe_slide_mm_p90": None if not slides.size else 1000.0 * _pct(slides, 90),
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),
         "touchdown_descent_ratio_p90": _pct(td_down, 90),
