@@ -209,6 +209,21 @@ def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt):
 
 
 @plan_inner
+def _ease(x):
+    """``x`` clamped to [0, 1] and eased in and out (smoothstep): its rate is zero at
+    both ends."""
+    e = min(max(x, 0.0), 1.0)
+    return e * e * (3.0 - 2.0 * e)
+
+
+@plan_inner
+def _landing_near(tau, freq):
+    """How near (0 to 1, eased) a touchdown ``tau`` s ahead is: 0 until the last
+    :data:`FORE_GUIDE_STRIDES` of a stride (of frequency ``freq``, Hz) before it, 1 at it."""
+    return _ease(1.0 - tau * freq / FORE_GUIDE_STRIDES)
+
+
+@plan_inner
 def _next_landing(n, td_tau, first):
     """Time (s) to the first touchdown of row ``n``'s swinging feet ``first`` and
     ``first + 1`` (``td_tau``, negative when planted); infinite with none swinging."""
@@ -306,12 +321,13 @@ def body_rows(body, state, scratch, reach, sc, out):
             c, sn = (c1, s1) if g else (c0, s0)
             along = ahead_of_mid(keys, reach.foot_offset, feet, n, i, c0, s0, c1, s1)
             need[n, i] = 0.0
+            # (a swinging foot's comes in before it lands, in the gaits that do not bound)
             tau = scratch.td_tau[n, i]
-            near = 1.0 if stance[n, i] else (1.0 - bound) * min(max(
-                1.0 - tau * f / FORE_GUIDE_STRIDES, 0.0), 1.0) if tau >= 0.0 and held else 0.0
+            near = 1.0 if stance[n, i] else _ease((1.0 - bound) * min(max(
+                1.0 - tau * f / FORE_GUIDE_STRIDES, 0.0), 1.0)) if tau >= 0.0 and held else 0.0
             if near > 0.0:  # np.interp(x, sweep_cols[n, i], drops)
-                need[n, i] = near * near * (3.0 - 2.0 * near) * interp_leg(
-                    abs(along) / sc.reach_margin, reach.drops, reach.sweep_cols, n, i)
+                need[n, i] = near * interp_leg(abs(along) / sc.reach_margin, reach.drops,
+                                               reach.sweep_cols, n, i)
             # the foot in its girdle's frame, for the sway: turned by -heading,
             # whose cosine is c and sine -sn
             fx, fz = feet[n, i, 0] - keys[n, g, 0], feet[n, i, 2] - keys[n, g, 2]
@@ -343,8 +359,7 @@ def body_rows(body, state, scratch, reach, sc, out):
         # (after a flight the guidance comes in over FOOTING_STRIDES of a stride)
         since = min(bs.footing[n] + dt, MAX_FOOTING) if held else 0.0
         bs.footing[n] = since
-        e = min(since * f / FOOTING_STRIDES, 1.0)
-        footing = e * e * (3.0 - 2.0 * e)
+        footing = _ease(since * f / FOOTING_STRIDES)
         tau_h = _next_landing(n, scratch.td_tau, 2)
         tau_f = _next_landing(n, scratch.td_tau, 0)
         prog_h = since / (since + tau_h) if since > 0.0 else 0.0
@@ -354,8 +369,7 @@ def body_rows(body, state, scratch, reach, sc, out):
         if stance[n, 0] or stance[n, 1]:
             bounding_f = bound
         else:
-            e = min(max(1.0 - tau_f * f / FORE_GUIDE_STRIDES, 0.0), 1.0)
-            bounding_f = bound * min(e * e * (3.0 - 2.0 * e), prog_f)
+            bounding_f = bound * min(_landing_near(tau_f, f), prog_f)
         for i in range(4):  # (the drops are taken: ``need`` now holds the time since landing)
             need[n, i] = (state.cpg.theta[n, i] - state.feet.theta_td[n, i]) / (TWO_PI * f)
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
