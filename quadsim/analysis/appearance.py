@@ -526,7 +526,8 @@ def format_appearance(report: dict) -> str:
         f"{f(report['trunk_heave_over_h'], '.3f')} h; spine flexion range "
         f"{f(report['spine_flexion_range_deg'], '.1f')} deg; head pitch range "
         f"{f(report['head_pitch_range_deg'], '.1f')} deg",
-        f"toe tip: deepest {f(report['toe_below_ground_mm'], '.1f')} mm below ground, slide p90 "
+        f"toe tip: deepest {f(report['toe_below_ground_mm'], '.1f')} mm below ground in stance "
+        f"({f(report['toe_below_ground_any_frame_mm'], '.1f')} on any frame), slide p90 "
         f"{f(report['toe_slide_mm_p90'], '.1f')} mm; foot speed / body speed at touchdown p90 "
         f"{f(report['touchdown_speed_ratio_p90'], '.2f')} (descending "
         f"{f(report['touchdown_descent_ratio_p90'], '.2f')}), after lift-off "
