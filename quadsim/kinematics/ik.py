@@ -29,7 +29,10 @@ the pair stretched to :data:`PAIR_REACH` of its length (it keeps a bend of a
 few degrees) and the miss reported. Under the posing (the yaw asked for), a
 swinging foot (fold above 0) whose target is beyond :data:`SWING_PAIR_REACH`
 of its pair is first lifted in the leg's plane (:func:`_lifted`); the miss is
-then measured from the lifted target, so the lift by design is not a miss.
+then measured from the lifted target, so the lift by design is not a miss. Nor
+is a swinging foot drawn so close that the pair's middle joint (elbow, knee,
+stifle) passes its flexion limit: the pair keeps at least that span
+(:data:`SPAN_CLEAR`), the foot drawn out along the pair's line, also not a miss.
 
 :func:`leg_rows` is the IK, compiled: the posing
 (:mod:`quadsim.locomotion.pose_kernel`) runs it for every frame, and

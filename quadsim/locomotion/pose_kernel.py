@@ -24,9 +24,9 @@ whether the post joints are limited (0/1) and the chain's joint indices;
 ``leg_top`` (4, 3) the top joint's offset (m); ``leg_bones`` (4, 9, n_max)
 the bone lengths (m), rest angles, full-fold angles, lower and upper flexion
 limits (rad), the rest angles' cosines and sines, the full-load sink angles and
-the digit's carried fold angles (rad); ``leg_scal`` (4, 7) the bend sign, pre
-and post gains, toe angle, rest leg angle, the foot's carried fold angle (rad)
-and the tuck height (m).
+the digit's carried fold angles (rad); ``leg_scal`` (4, 8) the bend sign, pre
+and post gains, toe angle, rest leg angle, the foot's carried fold angle (rad),
+the tuck height (m) and the pair's shortest span in swing (m).
 Conventions as in :mod:`quadsim.kinematics.ik`.
 """
 
