@@ -32,9 +32,7 @@ def take(character, plan, segment: float = SEGMENT, fps: float = FPS) -> Motion:
     clips are baked): `clips-from` finds a take's contacts at the foot joints, which a paw
     rolling over its toes lifts through the last part of its stance (a walk was then not
     found)."""
-    if hasattr(character, "locomotion"):
-        character = replace(character, locomotion=replace(character.locomotion,
-                                                          toe_roll_deg=None))
+    character = replace(character, locomotion=replace(character.locomotion, toe_roll_deg=None))
     script = Script(tuple(segment * i for i in range(len(plan))),
                     tuple(Command(speed=v, gait=g) for g, v in plan))
     return simulate(character, script, segment * len(plan), fps)

@@ -23,6 +23,7 @@ from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
 from quadsim.locomotion.feet import feet_rows
+from quadsim.locomotion.body import MAX_FOOTING
 from quadsim.locomotion.footpath import swing_position as compiled_swing_position
 from quadsim.locomotion.plan_kernels import step_constants
 from quadsim.locomotion.pose_kernel import pack_plan
@@ -116,7 +117,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
                         params, params),
         feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2)),
                                 np.zeros((n, 2)), np.zeros((n, 2)), z.copy(), np.zeros((n, 2)),
-                                np.full(n, 10.0)))
+                                np.full(n, MAX_FOOTING)))
     scratch = B.step_scratch(n)._replace(theta_prev=theta - 0.1, keys=keys, key_heading=kh,
                                          final_duty=final, trailing=np.zeros((n, 4), bool),
                                          half_min=half)

@@ -149,15 +149,17 @@ GUIDE_DESCENT = 1.0
 
 
 @plan_inner
-def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt, since):
+def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt, theta,
+               freq):
     """How far (m) girdle ``g`` of row ``n`` may rise over its dropped height
     (``dropped`` m below standing) with its planted feet ``left``, ``right``
     within :data:`STANCE_REACH` of their legs' reach (infinite with none
     planted): each leg's top over the ground point of its key and offsets,
     lifted by the spine's flexion ``flex`` (rad) and by ``tilt`` (m, the
     trunk's pitch with the flexion); ``ft`` is the feet state, ``c``, ``sn``
-    the cosine and sine of the girdle's key heading; ``since`` (N, 4) the time (s)
-    since each foot landed (:data:`LANDING_REACH`). Also the least rise that
+    the cosine and sine of the girdle's key heading; ``theta`` (N, 4) the legs'
+    phases (rad) and ``freq`` the stride frequency (Hz), which give the time since
+    each foot landed (:data:`LANDING_REACH`). Also the least rise that
     keeps them within :data:`CROUCH_REACH` (minus infinity with none planted):
     ``(cap, floor)``."""
     cap, floor = math.inf, -math.inf
@@ -168,7 +170,8 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
         ox, oz = reach.foot_offset[n, i, 0], reach.top_ahead[n, i]
         dx = fx - (keys[n, g, 0] + c * ox + sn * oz)
         dz = fz - (keys[n, g, 2] - sn * ox + c * oz)
-        e = max(1.0 - since[n, i] / LANDING_EASE, 0.0)
+        since = (theta[n, i] - ft.theta_td[n, i]) / (TWO_PI * freq)
+        e = max(1.0 - since / LANDING_EASE, 0.0)
         r = (STANCE_REACH + (LANDING_REACH - STANCE_REACH) * e * e) * reach.radius[n, i]
         top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
         cap = min(cap, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
@@ -218,9 +221,10 @@ def _ease(x):
 
 @plan_inner
 def _landing_near(tau, freq):
-    """How near (0 to 1, eased) a touchdown ``tau`` s ahead is: 0 until the last
-    :data:`FORE_GUIDE_STRIDES` of a stride (of frequency ``freq``, Hz) before it, 1 at it."""
-    return _ease(1.0 - tau * freq / FORE_GUIDE_STRIDES)
+    """How near (0 to 1) a touchdown ``tau`` s ahead is: 0 until the last
+    :data:`FORE_GUIDE_STRIDES` of a stride (of frequency ``freq``, Hz) before it, rising
+    linearly to 1 at it."""
+    return min(max(1.0 - tau * freq / FORE_GUIDE_STRIDES, 0.0), 1.0)
 
 
 @plan_inner
@@ -323,8 +327,8 @@ def body_rows(body, state, scratch, reach, sc, out):
             need[n, i] = 0.0
             # (a swinging foot's comes in before it lands, in the gaits that do not bound)
             tau = scratch.td_tau[n, i]
-            near = 1.0 if stance[n, i] else _ease((1.0 - bound) * min(max(
-                1.0 - tau * f / FORE_GUIDE_STRIDES, 0.0), 1.0)) if tau >= 0.0 and held else 0.0
+            near = 1.0 if stance[n, i] else _ease((1.0 - bound) * _landing_near(tau, f)) \
+                if tau >= 0.0 and held else 0.0
             if near > 0.0:  # np.interp(x, sweep_cols[n, i], drops)
                 need[n, i] = near * interp_leg(abs(along) / sc.reach_margin, reach.drops,
                                                reach.sweep_cols, n, i)
@@ -369,13 +373,12 @@ def body_rows(body, state, scratch, reach, sc, out):
         if stance[n, 0] or stance[n, 1]:
             bounding_f = bound
         else:
-            bounding_f = bound * min(_landing_near(tau_f, f), prog_f)
-        for i in range(4):  # (the drops are taken: ``need`` now holds the time since landing)
-            need[n, i] = (state.cpg.theta[n, i] - state.feet.theta_td[n, i]) / (TWO_PI * f)
+            bounding_f = bound * min(_ease(_landing_near(tau_f, f)), prog_f)
+        theta = state.cpg.theta
         cap_h, _ = _reach_cap(n, 0, 2, 3, state.feet, keys, c0, s0, feet, reach, dropped_h,
-                              flex, 0.0, need)
+                              flex, 0.0, theta, f)
         cap_f, floor_f = _reach_cap(n, 1, 0, 1, state.feet, keys, c1, s1, feet, reach,
-                                    dropped_f, flex, tilt_f, need)
+                                    dropped_f, flex, tilt_f, theta, f)
         rise_h = min(mid - half, cap_h)
         rise_f = min(mid + half, cap_f)
         if guided > 0.0 or guided_f > 0.0 or bounding_f > 0.0:
