@@ -40,10 +40,11 @@ def test_a_wrong_touchdown_label_is_named(bake, db):
     td = c.touchdown.copy()
     td[0] = (td[0] + 5) % c.frames
     bad = bake.cycle_defects(_cycle(c, touchdown=td))
-    # a label is the touchdown's nearest frame: the landing is named 4.5-5.5 frames off
-    # (the shipped trot's left fore lands 0.4 frame after its own label: 4.6)
+    # a label is the frame the foot comes to rest on, up to a frame after its refined
+    # touchdown: the landing is named 4-6 frames off (the shipped trot's left fore
+    # lands 0.8 frame before its own label: 5.8)
     off = [float(b.split()[2]) for b in bad if b.startswith("LF lands ") and "from its label" in b]
-    assert len(off) == 1 and 4.5 <= off[0] <= 5.5, bad
+    assert len(off) == 1 and 4.0 <= off[0] <= 6.0, bad
     assert not any(b.startswith(("RF", "LH", "RH")) for b in bad), bad
 
 

@@ -39,9 +39,8 @@ KNOWN = {
     ("leopard_cub", "procedural", "peak_joint_speed_deg_s"): "3,602 deg/s (transverse -> rotary); 10/30",
     ("dog_cub", "procedural", "peak_joint_speed_deg_s"): "3,213 deg/s (transverse -> rotary); 7/30",
     ("horse", "procedural", "peak_joint_speed_deg_s"): "2,605 deg/s (pace -> transverse); 31/56",
-    ("horse", "data", "peak_joint_speed_deg_s"): "2,667 deg/s (gallop -> rack); 27/30",
-    ("horse", "data", "touchdown_speed_ratio_p90"): "0.37 (gallop -> trot); 26/30",
-    ("horse", "data", "toe_below_ground_any_frame_mm"): "3.1 mm (trot -> gallop); 29/30",
+    ("horse", "data", "peak_joint_speed_deg_s"): "2,292 deg/s (gallop -> canter); 28/30",
+    ("horse", "data", "touchdown_speed_ratio_p90"): "0.301 (rack -> trot); 29/30",
 }
 
 

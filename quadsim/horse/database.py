@@ -14,12 +14,13 @@ take by the measured foot contacts and labels their touchdowns.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..skeleton.contacts import foot_contacts, stance_intervals
+from ..skeleton.contacts import default_contact_thresholds, foot_contacts, stance_intervals
 from ..errors import InputError
 from ..kinematics.rotations import quaternion_multiply, quaternion_slerp
 from .place_kernel import sample_rows
@@ -211,18 +212,22 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
     frame before the reference foot counts as landing with it). Cycles whose
     period differs from the take's median period by more than
     ``steady_tolerance`` (fraction) are not steady and skipped. The chosen
-    cycle is resampled (slerp) to a whole number of frames at the take's frame
-    rate, the root moved to start at the origin horizontally, and each foot's
-    touchdown labelled. The ``count`` steady cycles that loop best are
-    returned, in time order.
+    cycle, one period long from the frame the reference foot comes to rest on
+    (:func:`rest_frames`: its refined touchdown runs early by up to a frame), is
+    resampled (slerp) to a whole number of frames at the take's frame rate, the
+    root moved to start at the origin horizontally, and each foot's touchdown
+    labelled (the frame it comes to rest on, :func:`label_touchdowns`). The
+    ``count`` steady cycles that loop best are returned, in time order (a cycle
+    whose feet do not each land once in it is left out, unless none does).
 
     The small remaining difference between the first pose and the pose one
     period later (``loop_error_deg``) is spread over the cycle (each joint's
     correction slerped in linearly, the root height likewise), so that the
     clip plays as a seamless loop. With ``character`` given, each foot is then
-    held still on the ground through its contacts measured in the take by
-    two-bone IK (:func:`quadsim.horse.legs.pin_stance`), and the touchdowns
-    are labelled from the result.
+    held still on the ground through its contacts measured in the take, from the
+    frame it comes to rest on (:func:`settled_stance`), by two-bone IK
+    (:func:`quadsim.horse.legs.pin_stance`), and the touchdowns are labelled
+    from the result.
 
     Raises
     ------
@@ -245,6 +250,8 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
                          "cannot find a cycle")
     periods = np.diff(ref)
     med = float(np.median(periods[len(periods) // 2:]))
+    tol = rest_tolerance(feet, contact_tolerance)
+    rest = rest_frames(feet, c, reference, ref, fps, tol)
     steady = np.nonzero(np.abs(periods / med - 1.0) <= steady_tolerance)[0]
     # keep cycles wholly inside the take with all four feet landing in them
     steady = [k for k in steady if ref[k + 1] * fps <= len(motion) - 1]
@@ -254,7 +261,8 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
     for k in steady:
         t0, t1 = float(ref[k]), float(ref[k + 1])
         n = round((t1 - t0) * fps)
-        src = t0 * fps + np.arange(n + 1) * ((t1 - t0) * fps / n)
+        # sampled from the frame the reference foot comes to rest on (``rest_frames``)
+        src = rest[k] + np.arange(n + 1) * ((t1 - t0) * fps / n)
         root, rot = sample_motion(motion, src)
         err = float(pose_distance_deg(rot[0], rot[-1]))
         dh = float(abs(root[0, 1] - root[-1, 1]))
@@ -267,62 +275,175 @@ def cut_cycles(motion: Motion, *, count: int = 1, reference: int = 2,
             f"{where}: cannot loop a cycle: the best, at {t0:.3f}-{t1:.3f} s, has first and "
             f"last pose differing by {err:.1f} deg (allowed {loop_tolerance_deg}) and root "
             f"heights by {dh * 100:.1f} cm (allowed {root_tolerance * 100:g})")
-    out = []
+    out, failed = [], []
     for score, k, t0, t1, n, root, rot, err, dh in sorted(
             [c for c in cands if c[0] <= 1.0][:count], key=lambda x: x[2]):
-        P = t1 - t0
-        # played back at n frames per cycle: the speed that loops seamlessly
-        speed = float(np.linalg.norm((root[-1] - root[0])[[0, 2]]) * fps / n)
-        # close the loop: spread the end pose's residual over the cycle
-        frac = np.arange(n + 1) / n
-        delta = quaternion_multiply(rot[0], rot[-1] * np.array([1.0, -1.0, -1.0, -1.0]))
-        ident = np.zeros_like(delta)
-        ident[..., 0] = 1.0
-        corr = quaternion_slerp(np.broadcast_to(ident, rot.shape), np.broadcast_to(delta, rot.shape),
-                                np.broadcast_to(frac[:, None], rot.shape[:2]))
-        rot = quaternion_multiply(corr, rot)
-        root = root.copy()
-        root[:, 1] += (root[0, 1] - root[-1, 1]) * frac
-        root = root[:n] - np.array([root[0, 0], 0.0, root[0, 2]])
-        td = np.zeros(4, dtype=int)
-        phase = np.zeros(4)
+        try:
+            out.append(_close_cycle(motion, character, fps, on, iv, where, t0, t1, rest[k] / fps,
+                                    n, root, rot, err, tol))
+        except InputError as e:  # (an unsteady cycle's feet may not land once in it)
+            failed.append(e)
+    if not out:
+        raise failed[0]
+    return out
+
+
+def _close_cycle(motion, character, fps, on, iv, where, t0, t1, c0, n, root, rot, err,
+                 tol):
+    """The cycle sampled from ``c0`` (s; the reference foot's refined touchdowns
+    ``t0``, ``t1``) as ``n`` frames of ``root`` and ``rot``, looped, labelled and,
+    with ``character``, its feet pinned (:func:`cut_cycles`)."""
+    P = t1 - t0
+    # played back at n frames per cycle: the speed that loops seamlessly
+    speed = float(np.linalg.norm((root[-1] - root[0])[[0, 2]]) * fps / n)
+    # close the loop: spread the end pose's residual over the cycle
+    frac = np.arange(n + 1) / n
+    delta = quaternion_multiply(rot[0], rot[-1] * np.array([1.0, -1.0, -1.0, -1.0]))
+    ident = np.zeros_like(delta)
+    ident[..., 0] = 1.0
+    corr = quaternion_slerp(np.broadcast_to(ident, rot.shape), np.broadcast_to(delta, rot.shape),
+                            np.broadcast_to(frac[:, None], rot.shape[:2]))
+    rot = quaternion_multiply(corr, rot)
+    root = root.copy()
+    root[:, 1] += (root[0, 1] - root[-1, 1]) * frac
+    root = root[:n] - np.array([root[0, 0], 0.0, root[0, 2]])
+    td = np.zeros(4, dtype=int)
+    phase = np.zeros(4)
+    for i in range(4):
+        ti = on[i]
+        inside = ti[(ti >= t0 - 0.5 / fps) & (ti < t1 - 0.5 / fps)]
+        if len(inside) == 0:
+            raise InputError(f"{where}: foot {LEGS[i]} does not land in the cycle at "
+                             f"{t0:.3f}-{t1:.3f} s")
+        phase[i] = (inside[0] - c0) / P
+        td[i] = round(phase[i] * n) % n
+    lead = "left" if (phase[0] - phase[1]) % 1.0 < 0.5 else "right"
+    cyc = Motion(motion.skeleton, fps, root, rot[:n], foot_joints=motion.foot_joints)
+    if character is not None:
+        # the take's measured contacts starting in this cycle, in cycle frames
+        scale = n / P
+        stance = []
         for i in range(4):
-            ti = on[i]
-            inside = ti[(ti >= t0 - 0.5 / fps) & (ti < t1 - 0.5 / fps)]
-            if len(inside) == 0:
-                raise InputError(f"{where}: foot {LEGS[i]} does not land in the cycle at "
-                                 f"{t0:.3f}-{t1:.3f} s")
-            phase[i] = (inside[0] - t0) / P
-            td[i] = round(phase[i] * n) % n
-        lead = "left" if (phase[0] - phase[1]) % 1.0 < 0.5 else "right"
-        cyc = Motion(motion.skeleton, fps, root, rot[:n], foot_joints=motion.foot_joints)
-        if character is not None:
-            # the take's measured contacts starting in this cycle, in cycle frames
-            scale = n / P
-            stance = []
-            for i in range(4):
-                s_i = iv[i][np.isfinite(iv[i]).all(axis=1)]
-                s_i = s_i[(s_i[:, 0] >= t0 - 1e-9) & (s_i[:, 0] < t1 - 1e-9)]
-                stance.append((s_i - t0) * scale)
-            cyc = pin_cycle(character, cyc, speed, stance)
-            td = label_touchdowns(cyc, speed)
-        out.append(Cycle(cyc, n, td, speed, lead, err, t0))
+            s_i = iv[i][np.isfinite(iv[i]).all(axis=1)]
+            s_i = s_i[(s_i[:, 0] >= t0 - 1e-9) & (s_i[:, 0] < t1 - 1e-9)]
+            stance.append((s_i - c0) * scale)
+        stance = settled_stance(looped(cyc, 3, speed).foot_positions(), stance, n, tol)
+        cyc = pin_cycle(character, cyc, speed, stance)
+        td = label_touchdowns(cyc, speed)
+    return Cycle(cyc, n, td, speed, lead, err, c0)
+
+
+#: A foot comes to rest at most this many frames after the first frame of its refined
+#: touchdown (the refinement runs early by under a frame); one still moving then is
+#: taken as resting from that frame (a slow slide after the landing is the take's).
+SETTLE_FRAMES = 1
+
+
+def rest_tolerance(feet: np.ndarray, tolerance: float | None = None) -> float:
+    """How far (m) a foot at rest may move horizontally from one frame to the next:
+    ``tolerance`` if given, else the contacts' on-ground band for ``feet`` (T, 4, 3) (a
+    tenth of their height threshold, at least 1 mm)."""
+    if tolerance is not None:
+        return float(tolerance)
+    return max(0.1 * default_contact_thresholds(feet)[0], 1e-3)
+
+
+def _steps(feet: np.ndarray) -> np.ndarray:
+    """Each foot's horizontal travel (m) to the next frame, (T, 4), inf on the last."""
+    step = np.full(feet.shape[:2], np.inf)
+    step[:-1] = np.linalg.norm(np.diff(feet[..., [0, 2]], axis=0), axis=-1)
+    return step
+
+
+def rest_frames(feet: np.ndarray, contacts: np.ndarray, leg: int, touchdowns: np.ndarray,
+                fps: float, tolerance: float) -> np.ndarray:
+    """The frame on which foot ``leg`` comes to rest after each of its ``touchdowns``.
+
+    The refined touchdown (:func:`~quadsim.skeleton.contacts.stance_intervals`)
+    extrapolates the foot's last descent rate to the ground; a foot that eases onto
+    it comes to rest later, up to a frame (a galloping hoof 0.45-0.87 frame after,
+    still moving at 0.16 of the body's speed into the next frame). Cut there, a
+    cycle held the foot planted from its first frame while its last frame was
+    nearly two frames of the swing back: the loop's seam carried the foot over both
+    in one (the data mode's gallop landed its left hind at 0.45 of the body's speed,
+    the other feet at 0.09-0.12).
+
+    Parameters
+    ----------
+    feet : ndarray, shape (T, 4, 3)
+        Foot positions (m).
+    contacts : ndarray of bool, shape (T, 4)
+        Their contacts (:func:`~quadsim.skeleton.contacts.foot_contacts`).
+    leg : int
+    touchdowns : ndarray, shape (n,)
+        The foot's refined touchdown times (s).
+    fps : float
+    tolerance : float
+        A foot at rest moves at most this far (m) to the next frame
+        (:func:`rest_tolerance`).
+
+    Returns
+    -------
+    frames : ndarray of int, shape (n,)
+        The first contact frame at or after each touchdown (at most
+        :data:`SETTLE_FRAMES` after the touchdown's frame rounded up, that frame when
+        none) from which the foot moves no further than ``tolerance`` to the next frame.
+    """
+    T = len(feet)
+    step = _steps(feet)[:, leg]
+    out = np.empty(len(touchdowns), dtype=np.int64)
+    for k, t in enumerate(touchdowns):
+        j = first = min(int(np.ceil(t * fps - 1e-9)), T - 1)
+        while j < T - 1 and j <= first + SETTLE_FRAMES \
+                and not (contacts[j, leg] and step[j] <= tolerance):
+            j += 1
+        out[k] = j if j < T - 1 and j <= first + SETTLE_FRAMES else first
+    return out
+
+
+def settled_stance(feet: np.ndarray, stance: list[np.ndarray], n: int,
+                   tolerance: float) -> list[np.ndarray]:
+    """A looped cycle's contacts ``stance`` (per foot ``[on, off]`` in frames, ``on`` in
+    ``[-1, n)``, as :func:`cycle_stance` gives them) held from the frame each foot comes
+    to rest on, not before: ``feet`` (3 n, 4, 3) the cycle's feet over three loops.
+
+    The contacts' refined touchdowns run early by up to a frame for a foot that eases
+    onto the ground (:func:`rest_frames`); held still from there, a foot stopped a
+    frame short of where it lands and jumped there in one (the data mode's gallop,
+    expanded from 11 to 12 m/s, landed its left fore at 0.34 of the body's speed). A
+    contact whose foot is not at rest within :data:`SETTLE_FRAMES` keeps its ``on``.
+    """
+    step = _steps(feet)
+    out = []
+    for i, s in enumerate(stance):
+        s = np.array(s, dtype=float).reshape(-1, 2)
+        for r in range(len(s)):
+            on, off = s[r]
+            j = first = math.ceil(on + n - 1e-9)
+            while j < n + off and j <= first + SETTLE_FRAMES and step[j, i] > tolerance:
+                j += 1
+            if j < n + off and j <= first + SETTLE_FRAMES:
+                s[r, 0] = max(on, j - n)
+        out.append(s)
     return out
 
 
 def label_touchdowns(cycle: Motion, speed: float) -> np.ndarray:
-    """Touchdown frame of each foot in a looped cycle, measured, shape (4,)."""
+    """Touchdown frame of each foot in a looped cycle, measured, shape (4,): the frame
+    it comes to rest on after its refined touchdown (:func:`rest_frames`)."""
     n = len(cycle)
     three = looped(cycle, 3, speed)
     feet = three.foot_positions()
-    iv = stance_intervals(foot_contacts(feet, cycle.fps), cycle.fps, feet)
+    con = foot_contacts(feet, cycle.fps)
+    iv = stance_intervals(con, cycle.fps, feet)
+    tol = rest_tolerance(feet)
     td = np.zeros(4, dtype=int)
     for i in range(4):
-        on = iv[i][np.isfinite(iv[i][:, 0]), 0] * cycle.fps
-        on = on[(on >= n - 0.5) & (on < 2 * n - 0.5)]
-        if len(on) == 0:
+        rest = rest_frames(feet, con, i, iv[i][np.isfinite(iv[i][:, 0]), 0], cycle.fps, tol)
+        rest = rest[(rest >= n) & (rest < 2 * n)]
+        if len(rest) == 0:
             raise InputError(f"foot {LEGS[i]} does not land in the cycle")
-        td[i] = round(on[0] - n) % n
+        td[i] = rest[0] - n
     return td
 
 
@@ -405,6 +526,9 @@ __all__ = [
     "looped",
     "pin_cycle",
     "pose_distance_deg",
+    "rest_frames",
+    "rest_tolerance",
     "sample_frames",
     "sample_motion",
+    "settled_stance",
 ]
