@@ -171,8 +171,7 @@ def solve_leg(geom, parent_rot: np.ndarray, parent_pos: np.ndarray,
     Parameters
     ----------
     geom : LegGeometry
-        One leg, or several stacked by :func:`stack_leg_geometries` (then
-        every batch shape below ends with their number B).
+        One leg (:func:`quadsim.kinematics.legs.leg_geometry`).
     parent_rot : array-like, shape (..., 3, 3)
         World rotation of the top joint's parent.
     parent_pos : array-like, shape (..., 3)

@@ -41,6 +41,20 @@ TOUCHDOWN_EPS = 1e-12
 #: still lands on its touchdown point.
 SWING_REACH = 0.98
 REACH_HOLD_UNTIL = 0.8
+#: The gallops' swinging feet are held closer, within this fraction: their path
+#: runs ahead of the touchdown point in the trunk's frame (the foot comes back
+#: onto it at ground speed, :data:`~quadsim.locomotion.footpath.SWING_KNOTS_BOUND`),
+#: out of the fore leg's reach mid-swing, and the elbow opened to about 157 degrees
+#: there, folded again and re-opened to land (the horse's gallops' elbows at
+#: 2,576-2,589 deg/s, now 2,306-2,536; the leopard's rotary gallop 2,106 -> 1,953;
+#: the cubs' and the dog's gallops 2-5 % slower). Held at 0.95 the leopard cub's
+#: transverse gallop's fore feet came down 0.05 of a stride early (low and slow a
+#: frame before their touchdown); at 0.94 its rotary gallop turned faster (2,932).
+SWING_REACH_BOUND = 0.96
+#: ... fully at duty factors of the second figure and less, not at all from the first
+#: (the canters': held closer, the dog cub's canter clip at 2.5 m/s stood 0.05 of a
+#: stride longer than its table, and no canter turned a joint slower).
+HOLD_DUTY = (0.32, 0.26)
 #: A swinging foot's toes curl by this many radians per unit of its fold (the
 #: posing's toe pitch: positive lifts the toes).
 TOE_PER_FOLD = 0.5
@@ -258,7 +272,9 @@ def feet_rows(state, scratch, reach, sc, out):
                 + state.body.rise[n, g] + reach.flex_lift[n, i] * state.body.spine_smooth[n]
             rx, ry, rz = feet[n, i, 0] - px, feet[n, i, 1] - py, feet[n, i, 2] - pz
             r = math.sqrt(rx * rx + ry * ry + rz * rz)
-            rmax = SWING_REACH * reach.radius[n, i]
+            tight = bounding * min(max((HOLD_DUTY[0] - dn) / (HOLD_DUTY[0] - HOLD_DUTY[1]),
+                                       0.0), 1.0)
+            rmax = (SWING_REACH + tight * (SWING_REACH_BOUND - SWING_REACH)) * reach.radius[n, i]
             if r > rmax:
                 w = 1.0 if s <= REACH_HOLD_UNTIL else max(
                     1.0 - (s - REACH_HOLD_UNTIL) / (1.0 - REACH_HOLD_UNTIL), 0.0)
