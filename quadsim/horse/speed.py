@@ -87,7 +87,12 @@ so a planted foot stays planted. The cycle is then warped uniformly in time by
 rounded to it and ``r = v' k / v0`` taken from the rounded ``k``), which makes
 the contact time ``Tc'`` (within half a frame per cycle) and the speed
 exactly ``r v0 / k = v'``. Planted feet are finally held still on the ground
-by the same IK through their measured contacts.
+by the same IK through their measured contacts, each from the frame it comes to
+rest on in the clip (:func:`~quadsim.horse.database.settled_stance`; from its
+refined touchdown, up to a frame earlier, a foot was held short of its place and
+jumped there: the trot expanded to 4 m/s landed its left fore at 0.30 of the body's
+speed, now 0.06), and a hoof that a frame resampled between its swing and its held
+pose puts under the ground is set on it.
 """
 
 from __future__ import annotations
@@ -101,7 +106,7 @@ from ..errors import InputError
 from ..skeleton.character import Character
 from ..skeleton.motion import Motion
 from .database import (Clip, SpeedLaw, contacts_from_stance, label_touchdowns, looped,
-                       pin_cycle, sample_motion)
+                       pin_cycle, rest_tolerance, sample_motion, settled_stance)
 from .root import clip_stance_cycles
 from .legs import keep_foot_attitude, place_feet
 
@@ -271,8 +276,24 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
     root1, rot1 = sample_motion(ext, src)
     out = Motion(m.skeleton, m.fps, root1, rot1, foot_joints=m.foot_joints)
     # the clip's contacts, warped: hold those feet still on the ground
-    stance = [st * n1 for st in clip_stance_cycles(clip)]
+    # ... each from the frame it comes to rest on in the clip (``settled_stance``)
+    feet0 = looped(m, 3, clip.speed).foot_positions()
+    stance = settled_stance(feet0, [st * n for st in clip_stance_cycles(clip)], n,
+                            rest_tolerance(feet0))
+    stance = [st * (n1 / n) for st in stance]
     out = pin_cycle(character, out, speed, stance)
+    # a hoof resampled between its last swing pose and its held one may pass under
+    # the ground (the joints' rotations interpolated, not its path): put it on it
+    feet = out.foot_positions()
+    low = feet[..., UP] < ground
+    if low.any():
+        tgt = feet.copy()
+        tgt[..., UP] = np.maximum(tgt[..., UP], ground)
+        legs = tuple(int(i) for i in np.nonzero(low.any(axis=0))[0])
+        lifted = keep_foot_attitude(character, out, place_feet(character, out, tgt, legs))
+        rot = np.array(out.rotations)
+        rot[low.any(axis=1)] = lifted[low.any(axis=1)]
+        out = Motion(m.skeleton, m.fps, out.root_positions, rot, foot_joints=m.foot_joints)
     td = label_touchdowns(out, speed)
     return replace(clip, name=f"{clip.name}@{speed:g}", speed=float(speed), frames=n1,
                    touchdown=td, motion=out,
