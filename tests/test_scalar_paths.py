@@ -22,7 +22,7 @@ from quadsim.locomotion import bundles as B
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
-from quadsim.locomotion.feet import feet_rows
+from quadsim.locomotion.feet import FOLD_SKEW, feet_rows
 from quadsim.locomotion.body import MAX_FOOTING
 from quadsim.locomotion.footpath import swing_position as compiled_swing_position
 from quadsim.locomotion.plan_kernels import step_constants
@@ -165,7 +165,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     down = s >= 1 - 1e-12
     assert down.any() and (~down).any() and (s == 0).any()
     np.testing.assert_allclose(feet[~down], want[~down], atol=TOL)
-    np.testing.assert_allclose(fold[~down], np.sin(np.pi * s[~down]) ** 2, atol=TOL)
+    np.testing.assert_allclose(fold[~down], np.sin(np.pi * s[~down] ** FOLD_SKEW) ** 2, atol=TOL)
     np.testing.assert_allclose(feet[down], target[down], atol=TOL)
     np.testing.assert_allclose(pl[down], target[down], atol=TOL)
     assert st[down].all() and not st[~down].any() and (fold[down] == 0).all()

@@ -77,7 +77,7 @@ SWING_PAIR_REACH = 0.985
 SPAN_CLEAR = 0.1
 #: ... eased in over this fraction of ``l1 + l2`` (a soft minimum), and over
 #: the first and last frames of the swing, until its fold reaches this (the
-#: fold is ``sin^2(pi s)``: about the first and last 7 % of the swing; lifted
+#: fold is about ``sin^2(pi s)``: the first and last 7 % of the swing; lifted
 #: from its first frame, a foot's measured stance came out short by up to 0.06
 #: of the stride).
 SWING_LIFT_BAND = 0.01
