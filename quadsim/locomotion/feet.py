@@ -46,7 +46,7 @@ REACH_HOLD_UNTIL = 0.8
 #: onto it at ground speed, :data:`~quadsim.locomotion.footpath.SWING_KNOTS_BOUND`),
 #: out of the fore leg's reach mid-swing, and the elbow opened to about 157 degrees
 #: there, folded again and re-opened to land (the horse's gallops' elbows at
-#: 2,576-2,589 deg/s, now 2,306-2,536; the leopard's rotary gallop 2,106 -> 1,953;
+#: 2,576-2,589 deg/s, then 2,306-2,536; the leopard's rotary gallop 2,106 -> 1,953;
 #: the cubs' and the dog's gallops 2-5 % slower). Held at 0.95 the leopard cub's
 #: transverse gallop's fore feet came down 0.05 of a stride early (low and slow a
 #: frame before their touchdown); at 0.94 its rotary gallop turned faster (2,932).
@@ -195,6 +195,10 @@ def feet_rows(state, scratch, reach, sc, out):
         fast = fast_share(dn, state.schedule.params.bound[n])  # the fast gaits' swing path
         walk = walk_share(dn)  # and the walk's
         bounding = bound_share(dn, state.schedule.params.bound[n])  # and the bounding gaits'
+        # the swinging feet's reach hold, closer in the gallops
+        hold = SWING_REACH + bounding * min(max(
+            (HOLD_DUTY[0] - dn) / (HOLD_DUTY[0] - HOLD_DUTY[1]), 0.0), 1.0) \
+            * (SWING_REACH_BOUND - SWING_REACH)
         lead = min(LEAD_STANCE_FRACTION * stance_time,
                    sc.reach_margin * scratch.half_min[n] / max(v[n], MIN_LEAD_SPEED))
         for i in range(4):
@@ -280,9 +284,7 @@ def feet_rows(state, scratch, reach, sc, out):
                 + state.body.rise[n, g] + reach.flex_lift[n, i] * state.body.spine_smooth[n]
             rx, ry, rz = feet[n, i, 0] - px, feet[n, i, 1] - py, feet[n, i, 2] - pz
             r = math.sqrt(rx * rx + ry * ry + rz * rz)
-            tight = bounding * min(max((HOLD_DUTY[0] - dn) / (HOLD_DUTY[0] - HOLD_DUTY[1]),
-                                       0.0), 1.0)
-            rmax = (SWING_REACH + tight * (SWING_REACH_BOUND - SWING_REACH)) * reach.radius[n, i]
+            rmax = hold * reach.radius[n, i]
             if r > rmax:
                 w = 1.0 if s <= REACH_HOLD_UNTIL else max(
                     1.0 - (s - REACH_HOLD_UNTIL) / (1.0 - REACH_HOLD_UNTIL), 0.0)
