@@ -355,6 +355,16 @@ def _steps(feet: np.ndarray) -> np.ndarray:
     return step
 
 
+def _settle(step: np.ndarray, first: int, end: int, tolerance: float, down=None) -> int:
+    """The first frame ``j`` from ``first``, before ``end`` and at most :data:`SETTLE_FRAMES`
+    on, whose ``step`` (m) to the next frame is within ``tolerance`` (and ``down[j]``, if
+    given); -1 when none is."""
+    for j in range(first, min(end, first + SETTLE_FRAMES + 1)):
+        if step[j] <= tolerance and (down is None or down[j]):
+            return j
+    return -1
+
+
 def rest_frames(feet: np.ndarray, contacts: np.ndarray, leg: int, touchdowns: np.ndarray,
                 fps: float, tolerance: float) -> np.ndarray:
     """The frame on which foot ``leg`` comes to rest after each of its ``touchdowns``.
@@ -393,11 +403,9 @@ def rest_frames(feet: np.ndarray, contacts: np.ndarray, leg: int, touchdowns: np
     step = _steps(feet)[:, leg]
     out = np.empty(len(touchdowns), dtype=np.int64)
     for k, t in enumerate(touchdowns):
-        j = first = min(int(np.ceil(t * fps - 1e-9)), T - 1)
-        while j < T - 1 and j <= first + SETTLE_FRAMES \
-                and not (contacts[j, leg] and step[j] <= tolerance):
-            j += 1
-        out[k] = j if j < T - 1 and j <= first + SETTLE_FRAMES else first
+        first = min(int(np.ceil(t * fps - 1e-9)), T - 1)
+        j = _settle(step, first, T - 1, tolerance, contacts[:, leg])
+        out[k] = j if j >= 0 else first
     return out
 
 
@@ -409,8 +417,8 @@ def settled_stance(feet: np.ndarray, stance: list[np.ndarray], n: int,
 
     The contacts' refined touchdowns run early by up to a frame for a foot that eases
     onto the ground (:func:`rest_frames`); held still from there, a foot stopped a
-    frame short of where it lands and jumped there in one (the data mode's gallop,
-    expanded from 11 to 12 m/s, landed its left fore at 0.34 of the body's speed). A
+    frame short of where it lands and jumped there in one (the data mode's trot,
+    expanded to 4 m/s, landed its left fore at 0.30 of the body's speed; now 0.06). A
     contact whose foot is not at rest within :data:`SETTLE_FRAMES` keeps its ``on``.
     """
     step = _steps(feet)
@@ -419,10 +427,8 @@ def settled_stance(feet: np.ndarray, stance: list[np.ndarray], n: int,
         s = np.array(s, dtype=float).reshape(-1, 2)
         for r in range(len(s)):
             on, off = s[r]
-            j = first = math.ceil(on + n - 1e-9)
-            while j < n + off and j <= first + SETTLE_FRAMES and step[j, i] > tolerance:
-                j += 1
-            if j < n + off and j <= first + SETTLE_FRAMES:
+            j = _settle(step[:, i], math.ceil(on + n - 1e-9), math.ceil(n + off), tolerance)
+            if j >= 0:
                 s[r, 0] = max(on, j - n)
         out.append(s)
     return out

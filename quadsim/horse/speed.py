@@ -292,7 +292,8 @@ def expand(clip: Clip, character: Character, speed: float, *, anchor: str = "law
         legs = tuple(int(i) for i in np.nonzero(low.any(axis=0))[0])
         lifted = keep_foot_attitude(character, out, place_feet(character, out, tgt, legs))
         rot = np.array(out.rotations)
-        rot[low.any(axis=1)] = lifted[low.any(axis=1)]
+        frames = low.any(axis=1)
+        rot[frames] = lifted[frames]
         out = Motion(m.skeleton, m.fps, out.root_positions, rot, foot_joints=m.foot_joints)
     td = label_touchdowns(out, speed)
     return replace(clip, name=f"{clip.name}@{speed:g}", speed=float(speed), frames=n1,
