@@ -14,7 +14,7 @@ import math
 
 from quadsim.frames import GRAVITY
 from quadsim.locomotion.cpg import TWO_PI
-from quadsim.locomotion.rowmath import ahead_of_mid, frac, interp_leg, plan_inner
+from quadsim.locomotion.rowmath import ahead_of_mid, frac, interp_leg, plan_inner, smooth_min
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -178,17 +178,6 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
         r = CROUCH_REACH * reach.radius[n, i]
         floor = max(floor, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
     return cap, floor
-
-
-@plan_inner
-def smooth_min(a, b, k):
-    """``min(a, b)`` rounded over ``|a - b| < k``: at most ``k / 4`` lower, its slope
-    continuous (``b`` may be infinite)."""
-    d = abs(a - b)
-    if d >= k:
-        return min(a, b)
-    e = (k - d) / k
-    return min(a, b) - 0.25 * k * e * e
 
 
 @plan_inner

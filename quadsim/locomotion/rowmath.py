@@ -51,6 +51,17 @@ def frac(x):
 
 
 @plan_inner
+def smooth_min(a, b, k):
+    """``min(a, b)`` rounded over ``|a - b| < k``: at most ``k / 4`` lower, its slope
+    continuous (``b`` may be infinite; ``k`` of 0 is the plain minimum)."""
+    d = abs(a - b)
+    if d >= k:
+        return min(a, b)
+    e = (k - d) / k
+    return min(a, b) - 0.25 * k * e * e
+
+
+@plan_inner
 def interp_knot(x, xp):
     """Where ``numpy.interp(x, xp, fp)`` reads ``fp`` for one ``x``: ``(j, 0)``
     for ``fp[j]`` itself, ``(j, 1)`` for the line from knot ``j`` to ``j + 1``
