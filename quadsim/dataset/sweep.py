@@ -60,6 +60,8 @@ KEEP_FREED_MEMORY = True
 MMAP_THRESHOLD = 32 << 20
 #: Seconds to wait for a Dask scheduler to answer.
 CONNECT_TIMEOUT = 10.0
+#: Seconds a stopped local worker is given to end before it is killed.
+WORKER_STOP_WAIT = 5.0
 
 
 @dataclass(frozen=True)
@@ -249,19 +251,29 @@ def _warm_up(tasks) -> None:
 
 
 def _stop_workers(pool) -> None:
+    """Stop a local pool's workers: SIGTERM (each removes its unfinished files and
+    ends), then SIGKILL for any still alive after :data:`WORKER_STOP_WAIT` s. A worker
+    blocked in C -- on the task queue's lock, which a worker killed outright held --
+    never runs its SIGTERM handler: the pool's own clean-up waited for it, and the
+    interpreter's exit waited for that, forever (the sweep whose worker was killed
+    printed its message and never ended)."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
     stop = getattr(pool, "terminate_workers", None)  # Python 3.14
     if stop is not None:
         stop()
-        return
-    for p in list(getattr(pool, "_processes", {}).values()):
+    else:
+        for p in procs:
+            try:
+                p.terminate()
+            except (OSError, AttributeError):
+                pass
+    for p in procs:
         try:
-            p.terminate()
-        except (OSError, AttributeError):
-            pass
-    for p in list(getattr(pool, "_processes", {}).values()):
-        try:
-            p.join(5.0)
-        except (OSError, AttributeError, AssertionError):
+            p.join(WORKER_STOP_WAIT)
+            if p.is_alive():
+                p.kill()
+                p.join(WORKER_STOP_WAIT)
+        except (OSError, AttributeError, AssertionError, ValueError):
             pass
 
 
