@@ -249,3 +249,59 @@ def test_the_trunk_jolt_is_the_girdles_largest_vertical_acceleration():
     step[T // 2:, 1] -= 0.05
     got = appearance_report(replace(still, root_positions=step), anatomy=a)["trunk_jolt_g"]
     assert got >= 0.05 * fps * fps / GRAVITY - want
+
+
+ANGLES = ("fore_touchdown_angle_deg", "fore_liftoff_angle_deg", "hind_touchdown_angle_deg",
+          "hind_liftoff_angle_deg")
+
+
+def test_the_legs_land_ahead_of_their_tops_and_leave_behind_them(gallop):
+    """In a gallop every leg's line from its top joint to its toe tip leans forward
+    on the first frame of a stance and back on the last (the planted foot stays while
+    the top travels on with the trunk), by less than a right angle."""
+    r = appearance_report(gallop, start=2.0)
+    for pair in ("fore", "hind"):
+        assert 0.0 < r[f"{pair}_touchdown_angle_deg"] < 90.0
+        assert -90.0 < r[f"{pair}_liftoff_angle_deg"] < 0.0
+
+
+def test_the_legs_angles_are_measured_along_the_trunk_not_a_world_axis(gallop):
+    """Turn the whole motion a quarter turn about the vertical: it now runs along
+    another world axis, and the legs' angles are the same."""
+    from quadsim.kinematics.rotations import quaternion_multiply
+
+    half = math.pi / 4.0
+    yaw = np.array([math.cos(half), 0.0, math.sin(half), 0.0])  # (w, x, y, z)
+    c, s = math.cos(2 * half), math.sin(2 * half)
+    root = np.array(gallop.root_positions)
+    turned_root = root.copy()
+    turned_root[:, 0] = c * root[:, 0] + s * root[:, 2]
+    turned_root[:, 2] = -s * root[:, 0] + c * root[:, 2]
+    q = np.array(gallop.rotations)
+    q[:, 0] = quaternion_multiply(np.broadcast_to(yaw, q[:, 0].shape), q[:, 0])
+    turned = replace(gallop, root_positions=turned_root, rotations=q)
+    P0, P1 = gallop.world_positions(), turned.world_positions()
+    assert np.abs(P1[..., 0] - P0[..., 0]).max() > 1.0  # it does run elsewhere
+    r0, r1 = appearance_report(gallop, start=2.0), appearance_report(turned, start=2.0)
+    for k in ANGLES:
+        assert r1[k] == pytest.approx(r0[k], abs=1e-6), k
+
+
+def test_played_backwards_a_touchdown_is_the_lift_off_it_was(gallop):
+    """Reverse the frames: each contact's first frame is its last before, with the
+    same pose and the trunk facing the same way, so the touchdown angles are the
+    lift-off angles of the motion played forwards and the other way round."""
+    def motion(root, q):
+        return type(gallop)(gallop.skeleton, gallop.fps, root, q,
+                            foot_joints=gallop.foot_joints)
+
+    root, q = np.array(gallop.root_positions), np.array(gallop.rotations)
+    back = motion(root[::-1], q[::-1])
+    k = int(2.0 * gallop.fps)  # what the reversed motion's first 2 s leave out
+    fwd = appearance_report(motion(root[:len(root) - k], q[:len(q) - k]))
+    rev = appearance_report(back, start=2.0)
+    for pair in ("fore", "hind"):
+        assert rev[f"{pair}_touchdown_angle_deg"] == pytest.approx(
+            fwd[f"{pair}_liftoff_angle_deg"], abs=1.0)
+        assert rev[f"{pair}_liftoff_angle_deg"] == pytest.approx(
+            fwd[f"{pair}_touchdown_angle_deg"], abs=1.0)

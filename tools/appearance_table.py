@@ -9,7 +9,9 @@ data-driven horse at four speeds); the first 3 s are left out. Columns (see
 :mod:`quadsim.analysis.appearance`): stride over hip height against
 Alexander's law, scaled cadence, trunk pitch, heave and spine flexion ranges,
 head pitch range, the deepest toe tip and its slide, foot speed over body
-speed at touchdown (ground and descent) and after lift-off, the flight phases' vertical
+speed at touchdown (ground and descent) and after lift-off, the fore and hind legs'
+angles from the vertical at touchdown and lift-off (medians, toe ahead positive), the
+flight phases' vertical
 acceleration (median, g), peak joint speed and the worst hinge's locked share
 of swing frames, and the worst elbow's or knee's, locked and at 170 degrees or more. ``--markdown`` also prints the README's table (the walk, trot
 and rotary gallop of each character) from the same figures. ``--fps`` runs
@@ -38,7 +40,10 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
            ("head", "head_pitch_range_deg", ".1f"), ("toe-", "toe_below_ground_mm", ".1f"),
            ("slide", "toe_slide_mm_p90", ".1f"), ("td", "touchdown_speed_ratio_p90", ".2f"),
            ("tdv", "touchdown_descent_ratio_p90", ".2f"),
-           ("lo", "liftoff_speed_ratio_p90", ".2f"), ("fl g", "flight_g", ".2f"),
+           ("lo", "liftoff_speed_ratio_p90", ".2f"),
+           ("F td", "fore_touchdown_angle_deg", "+.0f"), ("F lo", "fore_liftoff_angle_deg", "+.0f"),
+           ("H td", "hind_touchdown_angle_deg", "+.0f"), ("H lo", "hind_liftoff_angle_deg", "+.0f"),
+           ("fl g", "flight_g", ".2f"),
            ("jolt", "trunk_jolt_g", ".1f"),
            ("w max", "peak_joint_speed_deg_s", ".0f"), ("lock%", "locked_pct", ".1f"),
            ("ek%", "elbow_knee_pct", ".1f"), ("ek170", "elbow_knee_near_pct", ".1f")]

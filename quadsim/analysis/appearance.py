@@ -227,7 +227,13 @@ def appearance_report(motion, *, start: float = 0.0, anatomy: Anatomy | None = N
         ``head_pitch_range_deg``, ``toe_below_ground_mm`` (deepest in stance),
         ``toe_below_ground_any_frame_mm`` (deepest on any frame, swing included),
         ``toe_slide_mm_p90``, ``touchdown_speed_ratio_p90``,
-        ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``, ``flights``, ``flight_accel_g`` (list, one
+        ``touchdown_descent_ratio_p90``, ``liftoff_speed_ratio_p90``,
+        ``fore_touchdown_angle_deg``, ``fore_liftoff_angle_deg``,
+        ``hind_touchdown_angle_deg`` and ``hind_liftoff_angle_deg`` (medians of the
+        line from a leg's top joint to its toe tip from the vertical on the first and
+        last frame of each contact, positive with the toe ahead of the top along the
+        trunk's forward direction over the ground: where a stance sits under its
+        girdle), ``flights``, ``flight_accel_g`` (list, one
         per flight phase; -1 is a ballistic fall), ``trunk_jolt_g`` (the pelvis's
         or withers' largest vertical acceleration, either way, in g: a trunk
         dropped onto its landing legs in one frame shows here),
@@ -282,13 +288,21 @@ def _series(P, Gfeet, Ghead, ground, a: Anatomy, head_parent: int, fps: float) -
                 np.ascontiguousarray(a.head_tip, dtype=float), float(fps),
                 tuple(out[k] for k in ("toes", "body_speed", "mid", "girdles_y", "pitch",
                                        "flex", "head", "fvel", "fdown")))
+    # the legs' top joints, and the trunk's forward direction over the ground (the
+    # pelvis to the withers), for the legs' angles at their contacts
+    out["tops"] = P[:, :, [leg[0] for leg in a.legs]]
+    ahead = P[:, :, a.withers] - P[:, :, a.pelvis]
+    ahead[..., Y] = 0.0
+    out["ahead"] = ahead / np.maximum(np.linalg.norm(ahead, axis=-1, keepdims=True), 1e-12)
     return out
 
 
 def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
     """Per motion of a batch, at every contact of its feet: the toe tip's depth below
     the ground and its slide (m), and the foot's ground and descent speed over the
-    body's at touchdown and its ground speed over the body's after lift-off.
+    body's at touchdown and its ground speed over the body's after lift-off; and the
+    leg's angle from the vertical on the contact's first and last frame
+    (:func:`_leg_angle`), rows of (degrees, foot index).
 
     ``s``: :func:`_series` with a leading batch axis; ``contacts`` (N, T, 4). Each
     list per foot in time order, the feet one after another (LF, RF, LH, RH).
@@ -314,11 +328,27 @@ def _contact_arrays(s: dict, contacts: np.ndarray) -> list[tuple]:
     k2, f2, i2 = clip[off], last[off], foot[off]
     lo = fvel[k2, f2 - 1, i2] / body_speed[k2, f2 - 1]
 
+    # the leg's angle from the vertical on its first and last frame down
+    at_td = first > 0
+    at_lo = last < T
+    td_angle = _leg_angle(s, clip[at_td], first[at_td], foot[at_td])
+    lo_angle = _leg_angle(s, clip[at_lo], last[at_lo] - 1, foot[at_lo])
+
     def split(x, which):
         return _split_at(x, np.searchsorted(which, np.arange(1, N)))
 
     return list(zip(split(below, clip), split(slides, clip), split(td, k), split(tdd, k),
-                    split(lo, k2)))
+                    split(lo, k2), split(np.stack([td_angle, foot[at_td]]).T, clip[at_td]),
+                    split(np.stack([lo_angle, foot[at_lo]]).T, clip[at_lo])))
+
+
+def _leg_angle(s: dict, clip: np.ndarray, frame: np.ndarray, foot: np.ndarray) -> np.ndarray:
+    """Angle (degrees) of the line from each leg's top joint to its toe tip from the
+    vertical, positive with the toe ahead along the trunk's forward direction, at the
+    given (clip, frame, foot) triples of :func:`_series`' arrays ``s``."""
+    d = s["toes"][clip, frame, foot] - s["tops"][clip, frame, foot]
+    along = np.einsum("ij,ij->i", d, s["ahead"][clip, frame])
+    return np.degrees(np.arctan2(along, -d[:, Y]))
 
 
 def _inner_angles(P, hinges) -> np.ndarray | None:
@@ -449,7 +479,7 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
     strides = {k: _num(x) for k, x in zip(STRIDE_MEDIANS, medians)}
 
     # contacts: toe tips and foot speeds at the events (every contact of the batch at once)
-    below, slides, td_ratio, td_down, lo_ratio = s["contacts"]
+    below, slides, td_ratio, td_down, lo_ratio, td_angle, lo_angle = s["contacts"]
     # and the toe tips on every frame: a swinging toe that dips under the ground does not
     # stand still, so it is no contact and the contacts' figure cannot see it
     tips_y = s["toes"][..., Y]
@@ -499,6 +529,7 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         "touchdown_speed_ratio_p90": _pct(td_ratio, 90),
         "touchdown_descent_ratio_p90": _pct(td_down, 90),
         "liftoff_speed_ratio_p90": _pct(lo_ratio, 90),
+        **_leg_angles(td_angle, lo_angle),
         "flights": len(accel),
         "flight_accel_g": [float(x) for x in accel],
         "trunk_jolt_g": jolt,
@@ -510,6 +541,18 @@ def _figures(a: Anatomy, fps: float, s: dict, contacts: np.ndarray, joint_speed:
         "elbow_knee_locked_joint": main_name,
         "elbow_knee_near_straight_fraction": main_near,
     }
+
+
+def _leg_angles(td_angle: np.ndarray, lo_angle: np.ndarray) -> dict:
+    """The fore and hind legs' median angles at touchdown and lift-off, from the
+    contacts' (angle, foot) rows."""
+    out = {}
+    for event, rows in (("touchdown", td_angle), ("liftoff", lo_angle)):
+        rows = np.asarray(rows, dtype=float).reshape(-1, 2)
+        for pair, feet in (("fore", (0, 1)), ("hind", (2, 3))):
+            x = rows[np.isin(rows[:, 1], feet), 0]
+            out[f"{pair}_{event}_angle_deg"] = float(np.median(x)) if x.size else None
+    return out
 
 
 def format_appearance(report: dict) -> str:
@@ -532,6 +575,11 @@ def format_appearance(report: dict) -> str:
         f"{f(report['touchdown_speed_ratio_p90'], '.2f')} (descending "
         f"{f(report['touchdown_descent_ratio_p90'], '.2f')}), after lift-off "
         f"{f(report['liftoff_speed_ratio_p90'], '.2f')}",
+        f"legs from the vertical (toe ahead +): fore at touchdown "
+        f"{f(report['fore_touchdown_angle_deg'], '+.1f')}, at lift-off "
+        f"{f(report['fore_liftoff_angle_deg'], '+.1f')} deg; hind "
+        f"{f(report['hind_touchdown_angle_deg'], '+.1f')}, "
+        f"{f(report['hind_liftoff_angle_deg'], '+.1f')} deg",
         f"flight phases {report['flights']}: vertical acceleration "
         + (", ".join(f"{x:+.2f}" for x in acc[:8]) + (" ..." if len(acc) > 8 else "") + " g"
            if acc else "-")
