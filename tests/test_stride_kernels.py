@@ -160,7 +160,8 @@ def test_the_compiled_appearance_series_are_numpys(from_parent):
     Gh = matrices_from_quaternions(rng.normal(size=(N, T, 4)))
     ground = rng.normal(0.0, 0.01, (N, T, 4))
     fields = {f: None for f in Anatomy.__dataclass_fields__}
-    a = replace(Anatomy(**fields), feet=(3, 5, 8, 11), toe_offsets=rng.normal(size=(4, 3)),
+    a = replace(Anatomy(**fields), feet=(3, 5, 8, 11), legs=((2, 3), (4, 5), (6, 8), (9, 11)),
+                toe_offsets=rng.normal(size=(4, 3)),
                 pelvis=1, mid_spine=2, withers=4, head=7, head_tip=rng.normal(size=3),
                 head_from_parent=from_parent)
     got = _series(P, Gf, Gh, ground, a, 6, FPS)
