@@ -351,24 +351,25 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
     assert appearance_report(m)["toe_slide_mm_p90"] <= 5.0
 
 
-#: Trunk jolts still above the bound (pelvis or withers, g). Each girdle is now
-#: held under the cap its landing feet will set (quadsim.locomotion.body,
-#: LAND_ACCEL), which brought the walk, trot and pace from 7-43 g to 2.3-8.9 g,
-#: and a swinging foot's vaulting drop comes in before it lands (1.8-6.8 g); what
-#: remains is mostly a girdle released by its planted feet at lift-off (the
-#: trunk's course goes on at its own rate) and a trot's girdle landing out of its
-#: flight onto a leg out of reach.
+#: Each girdle is held under the cap its landing feet will set
+#: (quadsim.locomotion.body, LAND_ACCEL), which brought the walk, trot and pace
+#: from 7-43 g to 2.3-8.9 g, and a swinging foot's vaulting drop comes in before
+#: it lands (1.8-6.8 g); a girdle rising into its ceiling now slows before it
+#: (CEILING_BRAKE), and a trunk leaving the ground flies on from where its
+#: girdles were held: the horse's trot and pace 7.6 and 6.5 g -> 4.7 and 4.4, the
+#: leopard's trot 6.8 -> 4.2 (the walks 1.8-3.5 -> 2.2-4.8).
 TRUNK_JOLT_G = 6.0
-JOLTS_ABOVE_BOUND = {("horse", "trot"): 7.6, ("horse", "pace"): 6.5, ("leopard", "trot"): 6.8}
 
 
-@pytest.mark.parametrize("character,gait", known_gaps(
-    [(c, g) for c in CHARACTERS for g in ("walk", "trot", "pace")],
-    JOLTS_ABOVE_BOUND, "trunk jolts {} g"))
+@pytest.mark.parametrize("character,gait", [
+    (c, g) for c in CHARACTERS for g in ("walk", "trot", "pace")])
 def test_the_trunk_is_not_dropped_onto_its_landing_legs(character, gait):
     """In the walk, trot and pace neither the pelvis nor the withers accelerates
     vertically by more than 6 g in any frame (a girdle lowered 3 cm from one
-    frame to the next reads 11 g at 60 fps)."""
+    frame to the next reads 11 g at 60 fps), at a touchdown, a lift-off or in
+    between. When the planted legs' reach capped only the drawn height, the trunk
+    sprang up by the whole cap at lift-off (35-40 mm at the leopard trot's
+    shoulders in one frame) and dropped 44 mm at the next touchdown: 19-32 g."""
     assert appearance_report(steady(character, gait))["trunk_jolt_g"] <= TRUNK_JOLT_G
 
 
@@ -404,24 +405,6 @@ def test_every_flight_phase_of_the_pace_and_canter_falls_at_about_g(character, g
     lower than standing, fell at 1.32-1.40 g (at 7 %, 1.15-1.23 g)."""
     falls = np.array(appearance_report(steady(character, gait))["flight_accel_g"])
     assert np.all((falls <= -0.7) & (falls >= -1.3)), falls
-
-
-@pytest.mark.parametrize("character,gait", [
-    (c, g) for c in CHARACTERS if c != "horse" for g in ("trot", "pace")])
-def test_the_trunk_does_not_jump_when_its_feet_land_or_lift(character, gait):
-    """The pelvis and the withers, as a viewer sees them, move without a jump at a
-    touchdown or a lift-off: their vertical acceleration (second difference of the
-    world height) peaks under 18 g. When the planted legs' reach capped only the drawn
-    height, the trunk sprang up by the whole cap at lift-off (35-40 mm at the leopard
-    trot's shoulders in one frame) and dropped 44 mm at the next touchdown: 19-32 g.
-    (The horse's trot and pace still peak at 42-44 g: a defect not yet fixed.)"""
-    from quadsim.skeleton.anatomy import find_anatomy
-
-    m = steady(character, gait)
-    a = find_anatomy(m.skeleton, m.foot_joints)
-    height = m.world_positions()[:, [a.pelvis, a.withers], 1]
-    peak = np.abs(np.diff(height, 2, axis=0)).max() * FPS * FPS / 9.81
-    assert peak < 18.0, peak
 
 
 def _head_pitch(motion):
@@ -632,9 +615,17 @@ def test_a_gait_change_does_not_squeeze_the_swings(character):
 #: Through a gait change the trunk jolts (its girdles' largest vertical
 #: acceleration) at most this many times the more jolting gait's own.
 JOLT_KEPT = 2.5
+#: Known: the horse's trot -> pace, whose trunk lands out of a flight onto a fore
+#: leg out of reach, its withers dropping 33 mm in one frame (12.0 g, 13.2 before
+#: the girdles braked for their ceilings; the ratio crossed the bound when the
+#: trot's own jolt fell from 7.6 to 4.7 g).
+JOLTS_KEPT_ABOVE = {"horse": "trot -> pace 2.53 times (12.0 g)"}
 
 
-@pytest.mark.parametrize("character", CHARACTERS)
+@pytest.mark.parametrize("character", [
+    pytest.param(c, marks=pytest.mark.xfail(c in JOLTS_KEPT_ABOVE, strict=True,
+                                            reason=JOLTS_KEPT_ABOVE.get(c, "")))
+    for c in CHARACTERS])
 def test_a_gait_change_jolts_the_trunk_no_more_than_its_gaits(character):
     """Every ordered pair, requested as above, measured from half a second before the
     request: the trunk's jolt at most 2.5 times the larger of the two gaits' steady

@@ -49,7 +49,10 @@ MIN_DUTY = 1e-3
 #: held down to the capped rise (its rate kept): at lift-off the trunk goes
 #: on from where the legs held it (it jumped up by the whole cap in one frame
 #: when only the drawn height was capped: 35-40 mm at the leopard trot's
-#: shoulders, then 44 mm down at the next touchdown).
+#: shoulders, then 44 mm down at the next touchdown), its rocking too in the
+#: gaits that do not bound: a trot's fore girdle held 16 mm under its hind one
+#: by the landing guidance sprang up by that on the first frame of the flight
+#: (the leopard's trot, 6.8 g at the withers).
 HEAVE_HOLD_PER_STRIDE = 0.35
 HEAVE_DAMPING = 0.8
 #: The centre's rise is at most this fraction of the hip height either way.
@@ -146,6 +149,20 @@ MAX_FOOTING = 10.0
 #: over the last :data:`FORE_GUIDE_STRIDES` of a swing: on its landing frame a
 #: foot's drop took the withers 26 mm down at once (the horse's walk, 8.6 g; now 3.5).
 GUIDE_DESCENT = 1.0
+#: In the gaits that do not bound, a girdle rising towards its ceiling (the cap of
+#: its planted feet, and of its landing feet where guided) slows down before it,
+#: decelerating by at most this (m/s^2) against the ceiling's own rate: met at full
+#: speed, the girdle turned from rising to the ceiling's descent in one frame (a
+#: trot's late stance, rising at 0.5-0.9 m/s into the guidance of the pair about to
+#: land: the horse's trot and pace jolted at 7.6 and 6.5 g, the leopard's trot at
+#: 6.8). Only a girdle still under its ceiling is braked, and through a change the
+#: bound weakens it by ``1 - bound``.
+CEILING_BRAKE = 2.0 * GRAVITY
+#: A ceiling moving faster than this many hip heights a second has changed hands
+#: (a foot landed or lifted, the guidance came in): no girdle is braked for that
+#: (braked at once for a landing foot's new cap, the horse's walk dropped its
+#: pelvis 170 mm in one frame).
+CEILING_JUMP_RATE = 2.0
 
 
 @plan_inner
@@ -228,6 +245,24 @@ def _next_landing(n, td_tau, first):
 
 
 @plan_inner
+def _braked(rise, before, ceiling, ceiling_before, same_feet, free, h, dt):
+    """A girdle's rise (m) this step: ``rise``, or lower if it comes up to its
+    ``ceiling`` (m; ``ceiling_before`` a step ago, both infinite with none) from
+    ``before`` (m) a step ago faster than :data:`CEILING_BRAKE` lets it, weakened by
+    ``free`` (``1 - bound``; 0 leaves ``rise`` as it is); not braked when its planted
+    feet changed (``same_feet`` false). ``h`` is the hip height (m), ``dt`` the step
+    (s)."""
+    if (free <= 0.0 or dt <= 0.0 or not same_feet or ceiling == math.inf
+            or ceiling_before == math.inf):
+        return rise
+    moved = ceiling - ceiling_before
+    room = ceiling - before
+    if room <= 0.0 or abs(moved) >= CEILING_JUMP_RATE * h * dt:
+        return rise
+    return min(rise, before + moved + math.sqrt(2.0 * CEILING_BRAKE / free * room) * dt)
+
+
+@plan_inner
 def body_rows(body, state, scratch, reach, sc, out):
     """Stage 6 of the step for N rows: the spine's concave/convex machine
     and slow flexion, the bob and vaulting drops, body height and pitch,
@@ -295,6 +330,14 @@ def body_rows(body, state, scratch, reach, sc, out):
             push = dv_leg * (c0 - c1 if u0 <= u1 else c0 + 2.0 - c1)  # wrapped: a touchdown
             dv += push
             fore_hind += push if i < 2 else -push
+        if not held and bs.footing[n] > 0.0 and bound < 1.0:
+            # leaving the ground, the trunk flies on from where its girdles were
+            # held (its rates go on; by ``1 - bound`` through a change)
+            k = 1.0 - bound
+            rh, rf = bs.rise[n, 0], bs.rise[n, 1]
+            z[n, 0] += k * (0.5 * (rh + rf) - z[n, 0])
+            tilt = math.asin(min(max((rf - rh) / body.body_length[n], -1.0), 1.0))
+            z[n, 1] += k * (tilt - z[n, 1])
         if held:
             wn = 2.0 * math.pi * HEAVE_HOLD_PER_STRIDE * f
             dv -= (wn * wn * z[n, 0] + 2.0 * HEAVE_DAMPING * wn * w[n, 0]) * dt
@@ -370,12 +413,19 @@ def body_rows(body, state, scratch, reach, sc, out):
                                     dropped_f, flex, tilt_f, theta, f)
         rise_h = min(mid - half, cap_h)
         rise_f = min(mid + half, cap_f)
+        ceil_h, ceil_f = cap_h, cap_f
         if guided > 0.0 or guided_f > 0.0 or bounding_f > 0.0:
             land_h = _landing_cap(n, 0, 2, 3, state.feet, scratch, reach, dropped_h, flex, 0.0)
             land_f = max(floor_f, _landing_cap(n, 1, 0, 1, state.feet, scratch, reach,
                                                dropped_f, flex, tilt_f))
             step = GUIDE_DESCENT * h * dt
             over_h, over_f = max(rise_h - land_h, 0.0), max(rise_f - land_f, 0.0)
+            if guided > 0.0:
+                ceil_h = min(ceil_h, max(land_h + (1.0 - guided) * over_h, bs.rise[n, 0] - step))
+            if guided_f > 0.0:
+                ceil_f = min(ceil_f, max(land_f + (1.0 - guided_f) * over_f, bs.rise[n, 1] - step))
+            if bounding_f > 0.0:
+                ceil_f = min(ceil_f, land_f + (1.0 - bounding_f) * over_f)
             rise_h = min(rise_h, max(rise_h - guided * over_h, bs.rise[n, 0] - step))
             rise_f = min(rise_f, max(rise_f - guided_f * over_f, bs.rise[n, 1] - step),
                          rise_f - bounding_f * over_f)
@@ -387,6 +437,15 @@ def body_rows(body, state, scratch, reach, sc, out):
         rounding = CAP_ROUNDING * h
         rise_h = smooth_min(mid - half, rise_h, rounding)
         rise_f = smooth_min(mid + half, rise_f, rounding)
+        # and comes up to its ceiling no faster than it can stop under it
+        planted_h = 1.0 * stance[n, 2] + 2.0 * stance[n, 3]
+        planted_f = 1.0 * stance[n, 0] + 2.0 * stance[n, 1]
+        rise_h = _braked(rise_h, bs.rise[n, 0], ceil_h, bs.ceiling[n, 0],
+                         planted_h == bs.ceiling_feet[n, 0], 1.0 - bound, h, dt)
+        rise_f = _braked(rise_f, bs.rise[n, 1], ceil_f, bs.ceiling[n, 1],
+                         planted_f == bs.ceiling_feet[n, 1], 1.0 - bound, h, dt)
+        bs.ceiling[n, 0], bs.ceiling[n, 1] = ceil_h, ceil_f
+        bs.ceiling_feet[n, 0], bs.ceiling_feet[n, 1] = planted_h, planted_f
         bs.height[n] = bs.base_height[n] + rise_h
         bs.rise[n, 0] = rise_h
         bs.rise[n, 1] = rise_f

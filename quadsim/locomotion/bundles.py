@@ -185,6 +185,8 @@ class BodyState(NamedTuple):
     base_height: np.ndarray   #: pelvis height the drops set, after their filter (m)
     rise: np.ndarray          #: (N, 2) hind and fore girdles' rise over the drops (m)
     footing: np.ndarray       #: time since the last flight ended (s; 0 in flight)
+    ceiling: np.ndarray       #: (N, 2) the girdles' ceilings a step ago (m; infinite with none)
+    ceiling_feet: np.ndarray  #: (N, 2) ... and their planted feet then (left 1 + right 2)
 
 
 class PlanState(NamedTuple):

@@ -249,7 +249,8 @@ class CharacterPlan:
                       np.array([float(self.body.pelvis_height[0])]),
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]), np.zeros((1, 2)),
-                      np.full(1, MAX_FOOTING)))
+                      np.full(1, MAX_FOOTING), np.full((1, 2), np.inf),
+                      np.zeros((1, 2))))
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
