@@ -468,7 +468,8 @@ def test_joint_speeds_do_not_depend_on_the_frame_rate(character, gait):
     results must not depend on it beyond integration error): at 240 fps the peak
     joint speed is within 10 % of the 60 fps one. Its rate jumping in one frame,
     a joint measures up to four times faster at 240 fps (the cats' and dog's
-    walk, trot and pace are within 5 %)."""
+    walk, trot and pace are within 6 %, but the dog cub's trot at 9.6 %: its 60 fps
+    frames catch a hind knee landing, 1,914 -> 1,731 deg/s)."""
     ch = load_character(character)
     v = gait_table(ch)[gait].preferred_speed
     peaks = [appearance_report(simulate(ch, Command(speed=v, gait=gait), 8.0, fps),
