@@ -94,7 +94,7 @@ def test_touchdowns_and_cycle_lengths_match_the_planned_contacts(which, request,
     for c in db.clips.values():
         m = truth[_take_of(c, paths)]
         fps = m.fps
-        f0 = _start(c) * fps
+        f0 = round(_start(c) * fps)  # a cut starts on a frame; its source gives ms
         on = _onsets(m.contacts)
         lh = on[2][on[2] >= f0 - 2][:2]                  # the cycle's own stride
         period = float(lh[1] - lh[0])

@@ -105,6 +105,10 @@ def test_legs_as_smooth_as_the_clip_and_feet_planted(horse, db, gait, speed, tur
     rel[..., 1] = above
     c = foot_contacts(rel, FPS)
     assert c.any(axis=0).all()
+    # (a stance cut by the window's start is left out: its touchdown unseen, it may be
+    # its lift-off frame alone, the joint already rising as the hoof breaks over)
+    for leg in range(4):
+        c[:np.argmin(c[:, leg]), leg] = False
     _, slide = foot_slide(feet, c)
     assert slide < 0.005, slide
     assert np.abs(above[c]).max() < 0.005

@@ -118,7 +118,7 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
         feet_state, B.BodyState(z, z, np.zeros((n, 2)), z, np.zeros((n, 0, 2)),
                                 np.zeros((n, 2)), np.zeros((n, 2)), z.copy(), np.zeros((n, 2)),
                                 np.full(n, MAX_FOOTING), np.full((n, 2), np.inf),
-                                np.zeros((n, 2))))
+                                np.zeros((n, 2)), z.copy()))
     scratch = B.step_scratch(n)._replace(theta_prev=theta - 0.1, keys=keys, key_heading=kh,
                                          final_duty=final, trailing=np.zeros((n, 4), bool),
                                          half_min=half)

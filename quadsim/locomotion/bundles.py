@@ -187,6 +187,7 @@ class BodyState(NamedTuple):
     footing: np.ndarray       #: time since the last flight ended (s; 0 in flight)
     ceiling: np.ndarray       #: (N, 2) the girdles' ceilings a step ago (m; infinite with none)
     ceiling_feet: np.ndarray  #: (N, 2) ... and their planted feet then (left 1 + right 2)
+    heave_rest: np.ndarray    #: (N,) the trunk centre's held level, the heave spring's rest (m)
 
 
 class PlanState(NamedTuple):

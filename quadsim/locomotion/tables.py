@@ -250,7 +250,7 @@ class CharacterPlan:
                       np.zeros((1, len(ch.tail), 2)), np.zeros((1, 2)), np.zeros((1, 2)),
                       np.array([float(self.body.pelvis_height[0])]), np.zeros((1, 2)),
                       np.full(1, MAX_FOOTING), np.full((1, 2), np.inf),
-                      np.zeros((1, 2))))
+                      np.zeros((1, 2)), np.zeros(1)))
 
 
 _PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
