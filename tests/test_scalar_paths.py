@@ -22,7 +22,7 @@ from quadsim.locomotion import bundles as B
 from quadsim.locomotion.controller import ControllerSettings
 from quadsim.locomotion.cpg import CPGParams, cpg_step_rows
 from quadsim.locomotion.cpg import cpg_step as compiled_cpg_step
-from quadsim.locomotion.feet import FOLD_SKEW, feet_rows
+from quadsim.locomotion.feet import FOLD_SKEW, HIND_LEAD_CUT, feet_rows
 from quadsim.locomotion.body import MAX_FOOTING
 from quadsim.locomotion.footpath import swing_position as compiled_swing_position
 from quadsim.locomotion.plan_kernels import step_constants
@@ -140,8 +140,12 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     # the time to touchdown at each leg's own phase rate this step (at least half the
     # clock's)
     rate = np.maximum((theta - (theta - 0.1)) * 60, 0.5 * 2 * np.pi * freq[:, None])
-    tau = np.maximum((td - theta) / rate + lead[:, None] + 0.5 / 60, 0)
+    # (in the bounding gaits a hind foot's touchdown point a little further back)
     girdle = np.array([1, 1, 0, 0])
+    quick = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)
+    back = HIND_LEAD_CUT * (quick * bound * stance_time)[:, None] * (girdle == 0)
+    assert (back > 0).any()
+    tau = np.maximum((td - theta) / rate + lead[:, None] - back + 0.5 / 60, 0)
     kp, kh_new = arc_advance(keys[:, girdle], kh[:, girdle], v[:, None], w[:, None], tau)
     target = kp + rotate_y(offset, kh_new)
     target[..., 1] = 0.0
@@ -152,7 +156,6 @@ def test_compiled_feet_stage_follows_the_arc_and_the_swing_spline(yaw_rate):
     # the fast gaits' path from a duty factor of 0.6 down to 0.4, the walk's from
     # 0.55 up to 0.6 (the duties span both), the fast share split between the fast
     # and the bounding gaits' paths by the bound
-    quick = np.clip((0.6 - duty) / 0.2, 0.0, 1.0)
     fast, bounding = (quick * (1 - bound))[:, None], (quick * bound)[:, None]
     walk = np.clip((duty - 0.55) / 0.05, 0.0, 1.0)[:, None]
     assert (fast == 0).any() and ((fast > 0) & (fast < 1)).any() and (bounding > 0).any()
