@@ -56,7 +56,7 @@ HEAVE_DAMPING = 0.8
 MAX_HEAVE = 0.2
 #: The spring's rest follows the level the centre is held at, over this many
 #: strides, and this fraction of the way from the standing height (a quarter of
-#: the pull back to standing is kept: the level stays anchored) -- in the gaits
+#: the pull back to standing is kept) -- in the gaits
 #: that do not bound, by ``1 - bound`` (the canter's and gallops' stay about the
 #: standing height: adapted too, the horse's gallops turned their stifles at
 #: 2,269 and 2,362 deg/s, from 2,025 and 1,967). Held about the standing height
