@@ -19,9 +19,11 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from quadsim import list_characters, load_character
-from quadsim.locomotion import Command, ProceduralController
+from quadsim.analysis import metrics as M
+from quadsim.locomotion import Command, ProceduralController, simulate
 from quadsim.locomotion.offline import stack_plans
 from quadsim.locomotion.gaits import gait_table, max_speed
+from quadsim.skeleton.anatomy import find_anatomy
 from quadsim.skeleton.fk import forward_kinematics
 
 FPS = 60
@@ -94,3 +96,45 @@ def test_one_hour_of_random_commands(character):
         run_and_check(character, segments, 3600.0)
 
     check()
+
+
+#: A steady command's motion, over three minutes, in windows of this many seconds.
+STEADY_WINDOW = 20.0
+#: Known: at 60 fps the dog cub's trot and pace stride 21.998 frames, so the frame a
+#: foot lifts on beats slowly against the stride; in the trot (traced) for two minutes
+#: every foot lifts a whole frame after its phase passes the duty factor, then on the
+#: frame it passes it, and that one frame of stance more (the foot trailing further,
+#: its reach capping the girdle) holds the trunk 12 mm lower; the pace's duty jumps
+#: alike. The leopard cub's transverse gallop's trunk drifts too (not traced).
+UNSTEADY = {
+    ("dog_cub", "trot"): "trunk 10.9 mm, duty 0.046",
+    ("dog_cub", "pace"): "trunk 7.7 mm, duty 0.045",
+    ("leopard_cub", "transverse_gallop"): "trunk 8.6 mm",
+}
+
+
+@pytest.mark.parametrize("character,gait", [
+    pytest.param(c, g, marks=pytest.mark.xfail((c, g) in UNSTEADY, strict=True,
+                                               reason=UNSTEADY.get((c, g), "")))
+    for c in list_characters()
+    for g in ("walk", "trot", "pace", "canter", "transverse_gallop")
+    if g in gait_table(load_character(c))])
+def test_a_steady_command_keeps_its_gait_steady_for_minutes(character, gait):
+    """A user steering a character live holds a command for minutes: over three
+    minutes at a gait's preferred speed (after 4 s of start-up), the trunk's mean
+    height (the pelvis's and withers' mean, from the joints) differs by at most 3 mm
+    and the feet's share of frames down (toe tips planted) by at most 0.01 between
+    windows of 20 s. (Measured: at most 1.9 mm and 0.007 but for the known cases.)"""
+    ch = load_character(character)
+    v = gait_table(ch)[gait].preferred_speed
+    m = simulate(ch, Command(speed=v, gait=gait), 184.0, FPS).time_slice(4.0, 185.0)
+    a = find_anatomy(m.skeleton, m.foot_joints)
+    y = m.world_positions()[:, [a.pelvis, a.withers], 1].mean(axis=1)
+    down = M.foot_contacts(m.contact_points(), FPS)
+    w = int(STEADY_WINDOW * FPS)
+    starts = range(0, len(y) - w + 1, w)
+    heights = [float(y[k:k + w].mean()) for k in starts]
+    shares = [float(down[k:k + w].mean()) for k in starts]
+    assert len(heights) == 9
+    assert max(heights) - min(heights) <= 0.003, heights
+    assert max(shares) - min(shares) <= 0.01, shares
