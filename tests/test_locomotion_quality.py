@@ -74,13 +74,13 @@ def slide_and_penetration(motion):
 
 
 # --------------------------------------------------------------- steady gaits
-@pytest.mark.parametrize("character,gait", [
-    (c, g) for c, g in _gait_cases() if g in ("trot", "transverse_gallop", "rotary_gallop")])
+@pytest.mark.parametrize("character,gait", list(_gait_cases()))
 def test_toe_tips_stay_on_the_ground_and_put_in_stance(character, gait):
     """What a viewer sees of a planted foot is its toe tip (the foot bone's end,
-    from the joints' world rotations), not the foot joint the plan pins: in trot
-    and gallop no toe tip goes more than 3 mm below the ground and in 90 % of
-    stances none slides more than 5 mm (the issue's figures)."""
+    from the joints' world rotations), not the foot joint the plan pins: in every
+    gait (the issue names the trot and gallop) no toe tip goes more than 3 mm below
+    the ground and in 90 % of stances none slides more than 5 mm (the issue's
+    figures)."""
     r = appearance_report(steady(character, gait))
     assert r["toe_below_ground_mm"] <= 3.0
     assert r["toe_slide_mm_p90"] <= 5.0
@@ -97,10 +97,9 @@ def test_no_toe_tip_goes_under_the_ground_in_swing_either(character, gait):
     assert r["toe_below_ground_any_frame_mm"] <= 3.0, r["toe_below_ground_any_frame_mm"]
 
 
-@pytest.mark.parametrize("character,gait", [
-    (c, g) for c, g in _gait_cases() if g in ("trot", "transverse_gallop", "rotary_gallop")])
+@pytest.mark.parametrize("character,gait", list(_gait_cases()))
 def test_elbows_and_knees_keep_a_bend_in_swing(character, gait):
-    """In trot and gallop no elbow or knee is locked straight (177 degrees or more,
+    """In every gait (the issue names the trot and gallop) no elbow or knee is locked straight (177 degrees or more,
     the issue's figure: the leg IK never straightens a pair past 173) and none is
     nearly straight (170 or more) in more than 10 % of swing frames, measured from
     the joints' world positions. When a swinging foot out of reach was reached for
@@ -316,12 +315,12 @@ PEAK_ABOVE_BOUND = {
 
 
 @pytest.mark.parametrize("character,gait", known_gaps(
-    [(c, g) for c in CHARACTERS for g in ("trot", "canter", "transverse_gallop", "rotary_gallop")],
-    PEAK_ABOVE_BOUND, "peak joint speed {}"))
+    list(_gait_cases()), PEAK_ABOVE_BOUND, "peak joint speed {}"))
 def test_no_joint_turns_faster_than_2000_deg_per_s(character, gait):
-    """The issue's figure, from the joints' local rotations frame to frame: in trot,
-    canter and gallop no joint of any character turns faster than 2,000 deg/s at
-    its preferred speed (a bend of 33 degrees between two frames at 60 fps)."""
+    """The issue's figure, from the joints' local rotations frame to frame: in every
+    gait (the issue names the trot, canter and gallop) no joint of any character
+    turns faster than 2,000 deg/s at its preferred speed (a bend of 33 degrees
+    between two frames at 60 fps)."""
     r = appearance_report(steady(character, gait))
     assert r["peak_joint_speed_deg_s"] <= PEAK_JOINT_SPEED_DEG_S, (
         r["peak_joint"], r["peak_joint_speed_deg_s"])
@@ -365,10 +364,17 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
 TRUNK_JOLT_G = 6.0
 
 
-@pytest.mark.parametrize("character,gait", [
-    (c, g) for c in CHARACTERS for g in ("walk", "trot", "pace")])
+#: Known (strict): the horse's rack (6.0 g): a landing hind foot's vaulting drop
+#: lowers the pelvis's base height through its filter while the landing cap,
+#: reckoned from the drop itself, dips about 7 mm for a frame.
+JOLT_ABOVE_BOUND = {("horse", "rack"): "6.0 g"}
+
+
+@pytest.mark.parametrize("character,gait", known_gaps(
+    [(c, g) for c, g in _gait_cases() if g in ("walk", "trot", "pace", "amble", "rack")],
+    JOLT_ABOVE_BOUND, "trunk jolt {}"))
 def test_the_trunk_is_not_dropped_onto_its_landing_legs(character, gait):
-    """In the walk, trot and pace neither the pelvis nor the withers accelerates
+    """In the walk, trot and pace (and the horse's amble and rack) neither the pelvis nor the withers accelerates
     vertically by more than 6 g in any frame (a girdle lowered 3 cm from one
     frame to the next reads 11 g at 60 fps), at a touchdown, a lift-off or in
     between. When the planted legs' reach capped only the drawn height, the trunk
