@@ -106,7 +106,7 @@ STEADY_WINDOW = 20.0
 #: measures steady), so the frames fall at nearly the same phase of every stride
 #: for minutes and drift across a whole frame in about three: the trunk's mean height
 #: depends on that phase (the dog cub's trot 274-285 mm per 20 s; the same frame-rate
-#: dependence shows as the trunk's mean height at 240 fps 3-7 mm under the 60 fps
+#: dependence shows as the trunk's mean height at 240 fps 5-7 mm under the 60 fps
 #: one in the trots, up to 21 mm in the leopard's transverse gallop), and so, by
 #: 0.4 of a frame, does the time a trotting or pacing foot stays down.
 UNSTEADY = {
