@@ -286,7 +286,7 @@ PEAK_JOINT_SPEED_DEG_S = 2000.0
 #: Steady gaits still above it (deg/s, the joint): in the gallops a fore leg's elbow
 #: swings 50-70 degrees in the one frame of a touchdown or a lift-off, the leg near
 #: straight while its girdle rises at 1-2 m/s over a stance of three to six frames,
-#: or opens 40-57 degrees a frame in mid-swing (README, "What is still short"). The
+#: or opens 40-57 degrees a frame in mid-swing (docs/motion.md, "What is still short"). The
 #: bounding gaits' swing path (``SWING_KNOTS_BOUND``) and the fore girdle guided
 #: onto a second fore foot's landing took the horse's gallops from 3,681-4,070 to
 #: 3,308-3,310, the leopard's from 2,170 and 3,133 (its transverse gallop now within
