@@ -32,8 +32,8 @@ import numpy as np
 import quadsim
 from quadsim.errors import InputError
 from quadsim.analysis.appearance import appearance_report
+from quadsim.locomotion.gaits import gait_table
 
-GAITS = ("walk", "trot", "pace", "canter", "transverse_gallop", "rotary_gallop")
 COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"),
            ("cad", "cadence", ".2f"), ("pitch", "trunk_pitch_range_deg", ".1f"),
            ("heave", "trunk_heave_over_h", ".3f"), ("spine", "spine_flexion_range_deg", ".1f"),
@@ -51,7 +51,7 @@ COLUMNS = [("lam/h", "stride_over_h", ".2f"), ("Alex", "alexander_over_h", ".2f"
 
 def _cases(seconds: float, fps: int = 60):
     for cid in ("leopard", "leopard_cub", "dog_cub", "horse"):
-        for g in GAITS:
+        for g in gait_table(quadsim.load_character(cid)):  # every gait, the horse's amble and rack
             yield f"{cid} {g}", lambda cid=cid, g=g: quadsim.run(cid, gait=g, seconds=seconds,
                                                                  fps=fps)
     for v in (1.6, 4.0, 6.5, 12.0):
