@@ -99,10 +99,10 @@ def test_no_toe_tip_goes_under_the_ground_in_swing_either(character, gait):
 
 @pytest.mark.parametrize("character,gait", list(_gait_cases()))
 def test_elbows_and_knees_keep_a_bend_in_swing(character, gait):
-    """In every gait (the issue names the trot and gallop) no elbow or knee is locked straight (177 degrees or more,
-    the issue's figure: the leg IK never straightens a pair past 173) and none is
-    nearly straight (170 or more) in more than 10 % of swing frames, measured from
-    the joints' world positions. When a swinging foot out of reach was reached for
+    """In every gait (the issue names the trot and gallop) no elbow or knee is
+    locked straight (177 degrees or more, the issue's figure: the leg IK never
+    straightens a pair past 173) and none is nearly straight (170 or more) in more
+    than 10 % of swing frames, measured from the joints' world positions. When a swinging foot out of reach was reached for
     with the leg as straight as it goes, 14-26 % of the swing frames were."""
     r = appearance_report(steady(character, gait))
     assert r["elbow_knee_locked_fraction"] == 0.0, r["elbow_knee_locked_joint"]
@@ -364,9 +364,10 @@ def test_toe_tips_stay_put_in_a_turning_walk(character):
 TRUNK_JOLT_G = 6.0
 
 
-#: Known (strict): the horse's rack (6.0 g): a landing hind foot's vaulting drop
-#: lowers the pelvis's base height through its filter while the landing cap,
-#: reckoned from the drop itself, dips about 7 mm for a frame.
+#: Known (strict): the horse's rack (6.0 g): as a landing hind foot's vaulting drop
+#: comes in, the landing cap, reckoned from the drop filtered once, rises with it a
+#: frame before the base height, filtered twice, comes down: the pelvis 6 mm up,
+#: then 10 mm down (docs/motion.md has what was tried).
 JOLT_ABOVE_BOUND = {("horse", "rack"): "6.0 g"}
 
 
@@ -374,9 +375,10 @@ JOLT_ABOVE_BOUND = {("horse", "rack"): "6.0 g"}
     [(c, g) for c, g in _gait_cases() if g in ("walk", "trot", "pace", "amble", "rack")],
     JOLT_ABOVE_BOUND, "trunk jolt {}"))
 def test_the_trunk_is_not_dropped_onto_its_landing_legs(character, gait):
-    """In the walk, trot and pace (and the horse's amble and rack) neither the pelvis nor the withers accelerates
-    vertically by more than 6 g in any frame (a girdle lowered 3 cm from one
-    frame to the next reads 11 g at 60 fps), at a touchdown, a lift-off or in
+    """In the walk, trot and pace (and the horse's amble and rack) neither the
+    pelvis nor the withers accelerates vertically by more than 6 g in any frame (a
+    girdle lowered 3 cm from one frame to the next reads 11 g at 60 fps), at a
+    touchdown, a lift-off or in
     between. When the planted legs' reach capped only the drawn height, the trunk
     sprang up by the whole cap at lift-off (35-40 mm at the leopard trot's
     shoulders in one frame) and dropped 44 mm at the next touchdown: 19-32 g."""
