@@ -105,12 +105,12 @@ STEADY_WINDOW = 20.0
 #: whole, half, third or quarter number but for the leopard's pace, 30.502, which
 #: measures steady), so the frames fall at nearly the same phase of every stride
 #: for minutes and drift across a whole frame in about three: the trunk's mean height
-#: depends on that phase (the dog cub's trot 274-285 mm per 20 s; the same frame-rate
-#: dependence shows as the trunk's mean height at 240 fps 5-7 mm under the 60 fps
-#: one in the trots, up to 21 mm in the leopard's transverse gallop), and so, by
+#: depends on that phase (the dog cub's trot 275.6-280.2 mm per 20 s; the same
+#: frame-rate dependence shows as the trunk's mean height at 240 fps up to 6 mm under
+#: the 60 fps one in the trots, up to 21 mm in the leopard's transverse gallop), and so, by
 #: 0.4 of a frame, does the time a trotting or pacing foot stays down.
 UNSTEADY = {
-    ("dog_cub", "trot"): "trunk 10.9 mm, time down 0.018",
+    ("dog_cub", "trot"): "trunk 4.5 mm, time down 0.018",
     ("dog_cub", "pace"): "trunk 7.7 mm, time down 0.022",
     ("leopard_cub", "transverse_gallop"): "trunk 8.6 mm",
 }

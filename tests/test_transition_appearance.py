@@ -35,8 +35,8 @@ FIGURES = ["peak_joint_speed_deg_s", "touchdown_speed_ratio_p90", "liftoff_speed
 #: Known gaps (strict: the mark goes once every pair is within the bound), measured:
 #: the worst pair's figure and how many pairs are within.
 KNOWN = {
-    ("leopard_cub", "procedural", "peak_joint_speed_deg_s"): "3,472 deg/s (transverse -> rotary); 10/30",
-    ("dog_cub", "procedural", "peak_joint_speed_deg_s"): "3,309 deg/s (transverse -> rotary); 10/30",
+    ("leopard_cub", "procedural", "peak_joint_speed_deg_s"): "3,472 deg/s (transverse -> rotary); 9/30",
+    ("dog_cub", "procedural", "peak_joint_speed_deg_s"): "3,309 deg/s (transverse -> rotary); 9/30",
     ("horse", "procedural", "peak_joint_speed_deg_s"): "2,134 deg/s (transverse -> rotary); 54/56",
     ("horse", "data", "peak_joint_speed_deg_s"): "2,105 deg/s (amble -> gallop); 28/30",
 }
