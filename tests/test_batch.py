@@ -138,6 +138,10 @@ def test_bad_batch_input_is_refused():
         b.gait_ids(["amble", None])
     with pytest.raises(InputError, match="not among"):
         b.step([1.0, 1.0], gait=[gait_ids().index("amble"), -1])
+    with pytest.raises(InputError, match="unknown gait"):
+        b.step([1.0, 1.0], gait="amble")
+    with pytest.raises(InputError, match="`gait` must be gait names"):
+        b.step([1.0, 1.0], gait=[1.5j, 0])
     with pytest.raises(ValueError, match="2 characters"):
         b.step_commands([Command(speed=1.0)])
 
@@ -306,3 +310,18 @@ class _threads:
         import numba
 
         numba.set_num_threads(self.was)
+
+
+def test_gaits_are_asked_for_by_name_as_well_as_by_id():
+    """``step(gait=...)`` takes names (one for every row, or one per row, ``None``
+    choosing by speed) as :meth:`~BatchController.gait_ids` would turn them into ids:
+    the same motion either way."""
+    ch = load_character("leopard")
+    by_name, by_id, one_name = (BatchController([ch, ch]) for _ in range(3))
+    ids = by_id.gait_ids(["trot", None])
+    for _ in range(30):
+        a = by_name.step([2.0, 2.0], gait=["trot", None], pose=False)
+        b = by_id.step([2.0, 2.0], gait=ids, pose=False)
+        c = one_name.step([2.0, 2.0], gait="trot", pose=False)
+    assert np.array_equal(a["gait"], b["gait"]) and np.array_equal(a["feet"], b["feet"])
+    assert list(c["gait"]) == [gait_ids().index("trot")] * 2

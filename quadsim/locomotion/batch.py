@@ -230,9 +230,10 @@ class BatchController:
             Commanded turn rate (rad/s), positive left (default 0).
         heading : array-like, shape (N,), optional
             Heading to steer towards (rad); NaN where the turn rate is used.
-        gait : array-like of int, shape (N,), optional
-            Requested gait ids (:attr:`ids`, see :meth:`gait_ids`); -1
-            chooses by speed (default).
+        gait : str or array-like, shape (N,), optional
+            Requested gaits: names (``None`` chooses by speed) or gait ids
+            (:attr:`ids`, see :meth:`gait_ids`; -1 chooses by speed); one for
+            every row or one per row (default: by speed).
         dt : float, optional
             Step (s), default the controller's.
         pose : bool
@@ -271,7 +272,16 @@ class BatchController:
         if gait is None:
             gait = self._auto_gait.copy()
         else:
-            gait = _rows(gait, n, np.int64)
+            if isinstance(gait, str):  # one name for every row
+                gait = [gait] * n
+            if not isinstance(gait, np.ndarray) and any(
+                    g is None or isinstance(g, str) for g in np.ravel(np.asarray(gait, object))):
+                gait = self.gait_ids(list(np.broadcast_to(np.asarray(gait, object), (n,))))
+            try:
+                gait = _rows(gait, n, np.int64)
+            except (TypeError, ValueError):
+                raise InputError("`gait` must be gait names (None: by speed) or gait ids "
+                                 f"(-1: by speed), one or {n} of them, got {gait!r}") from None
             asked = gait >= 0
             if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
                 raise InputError("a requested gait id is not among its character's gaits")
