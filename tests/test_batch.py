@@ -142,6 +142,10 @@ def test_bad_batch_input_is_refused():
         b.step([1.0, 1.0], gait="amble")
     with pytest.raises(InputError, match="`gait` must be gait names"):
         b.step([1.0, 1.0], gait=[1.5j, 0])
+    with pytest.raises(InputError, match="one or 2 of them"):
+        b.step([1.0, 1.0], gait=["trot", "walk", "pace"])
+    with pytest.raises(InputError, match="ids must lie in -1"):
+        b.step([1.0, 1.0], gait=[-1, 99])
     with pytest.raises(ValueError, match="2 characters"):
         b.step_commands([Command(speed=1.0)])
 

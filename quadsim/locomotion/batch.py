@@ -272,16 +272,22 @@ class BatchController:
         if gait is None:
             gait = self._auto_gait.copy()
         else:
-            if isinstance(gait, str):  # one name for every row
-                gait = [gait] * n
-            if not isinstance(gait, np.ndarray) and any(
-                    g is None or isinstance(g, str) for g in np.ravel(np.asarray(gait, object))):
-                gait = self.gait_ids(list(np.broadcast_to(np.asarray(gait, object), (n,))))
+            given = gait
             try:
+                if isinstance(gait, str):  # one name for every row
+                    gait = [gait] * n
+                if not isinstance(gait, np.ndarray) and any(
+                        g is None or isinstance(g, str) for g in np.ravel(np.asarray(gait, object))):
+                    gait = self.gait_ids(list(np.broadcast_to(np.asarray(gait, object), (n,))))
                 gait = _rows(gait, n, np.int64)
+            except InputError:  # an unknown name: gait_ids names the character's gaits
+                raise
             except (TypeError, ValueError):
                 raise InputError("`gait` must be gait names (None: by speed) or gait ids "
-                                 f"(-1: by speed), one or {n} of them, got {gait!r}") from None
+                                 f"(-1: by speed), one or {n} of them, got {given!r}") from None
+            if np.any((gait < -1) | (gait >= len(self.ids))):
+                raise InputError(f"`gait` ids must lie in -1 ... {len(self.ids) - 1} "
+                                 f"(see gait_ids), got {given!r}")
             asked = gait >= 0
             if np.any(asked & ~self._has[self.kind, np.where(asked, gait, 0)]):
                 raise InputError("a requested gait id is not among its character's gaits")
