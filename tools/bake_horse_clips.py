@@ -457,7 +457,8 @@ def bake(out: Path) -> list[str]:
     # clip's contacts at the hoof joints, so a hoof breaking over at the toe would
     # read as a short stance (``[locomotion] toe_roll_deg`` off); and untucked in
     # swing (``digit_flex_deg`` off): played slower than baked, a tucked hoof's toe
-    # dipped 10-11 mm into the ground (the trot clip at 3.9 m/s)
+    # dipped 10-11 mm into the ground (the trot clip at 3.9 m/s); the data mode tucks
+    # a swinging hoof at playback instead (quadsim.horse.hoof_kernel)
     horse = load_character("horse")
     horse = replace(horse, locomotion=replace(horse.locomotion, toe_roll_deg=None,
                                               digit_flex_deg=None))

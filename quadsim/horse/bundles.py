@@ -43,6 +43,19 @@ class PlaceRig(NamedTuple):
     toes : ndarray, shape (4, 3)
         Per leg, the toe tip (the foot joint's end site) in the foot's frame (m);
         zeros without one.
+    tuck_joints : ndarray of int64, shape (4, K)
+        Per leg whose hoof tucks in swing (``[locomotion] digit_flex_deg``, the
+        procedural IK's carried digit): the digit's joints from its first (the
+        fetlock) down to the foot joint, padded with -1; a row of -1 for a leg that
+        does not tuck.
+    tuck_turns : ndarray, shape (4, K)
+        Each of those joints' turn about its +X axis (rad) at a full tuck: the
+        procedural IK's carry at a full fold.
+    tuck_scales : ndarray, shape (4, 3)
+        Per leg: the first digit joint's turn about +X (rad) at a full swing fold in
+        the clips (baked untucked), which gives the fold from a clip's pose; the
+        height over the ground (m) from which the tuck is full; and the foot joint's
+        height standing (m).
     """
 
     parents: np.ndarray
@@ -58,6 +71,9 @@ class PlaceRig(NamedTuple):
     fore: float
     below: np.ndarray
     toes: np.ndarray
+    tuck_joints: np.ndarray
+    tuck_turns: np.ndarray
+    tuck_scales: np.ndarray
 
 
 class PlaceTuning(NamedTuple):

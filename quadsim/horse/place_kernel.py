@@ -41,6 +41,7 @@ from numba import njit
 from ..kinematics.chains import copy_into, fk_row, mul_into, mul_tn_into, two_bone_row
 from ..kinematics.rotations import matrix_from_quaternion, quaternion_from_matrix, slerp_one
 from .ground_kernel import SETTLE_TURN, ground_height, ground_heights, toe_onto_ground
+from .hoof_kernel import tuck_hooves
 
 #: Slack (cycles) of the contact test at a contact's ends (rounding of measured ends).
 CONTACT_SLACK = 1e-9
@@ -251,6 +252,8 @@ def place_row(frame, rig, tuning, state, ramps, out):
     rotations, ground = out.rotations, out.ground
     fk_row(rig.parents, rig.offsets, L, root, G, P)
     _hold_attitudes(rig, tuning, state.feet, ramps, G, P, L, M[14], rotations)
+    if tuck_hooves(rig, ramps, tgt, contacts, L):  # the legs below the digits moved
+        fk_row(rig.parents, rig.offsets, L, root, G, P)
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
     for i in range(4):
@@ -445,6 +448,19 @@ def _follow_plants(frame, rig, tuning, state, ramps, root, F, clearance, contact
 
 
 @njit(cache=True, inline="always")
+def _soft_floor(a, floor, k):
+    """``max(a, floor)`` rounded over ``|a - floor| < k`` (at most ``k / 4`` higher),
+    its slope continuous: a swing foot's path meets its clearance floor without a kink
+    (a hoof whose clip swing came low over a rising slope turned its tuck, which follows
+    the foot's height, from falling to still in one frame)."""
+    d = abs(a - floor)
+    if d >= k:
+        return max(a, floor)
+    e = (k - d) / k
+    return max(a, floor) + 0.25 * k * e * e
+
+
+@njit(cache=True, inline="always")
 def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
     """Each foot's target ``tgt`` (4, 3) by the :class:`~quadsim.horse.turning.FootPlanter`'s
     rules: a planted foot on its plant, a striking one planted on the ground, a lifted
@@ -477,7 +493,7 @@ def _foot_targets(frame, tuning, feet, ramps, F, clearance, contacts, tgt):
         x = ty - over                          # above the clip's clearance: eased onto it
         if x > 0.0:
             ty = over + (x - x * x / (2.0 * CAP_EASE) if x < CAP_EASE else 0.5 * CAP_EASE)
-        ty = max(ty, g + MIN_CLEARANCE_FRACTION * clear)
+        ty = _soft_floor(ty, g + MIN_CLEARANCE_FRACTION * clear, MIN_CLEARANCE_FRACTION * clear)
         feet.struck[i] = contacts[i] and not planted
         if feet.struck[i]:                     # strike: the plant, on the ground
             plant[i, 0], plant[i, 1], plant[i, 2] = tx, g, tz

@@ -36,6 +36,7 @@ import numpy as np
 from ..skeleton.character import Character
 from .bundles import PlacedPose, PlaceFrame, PlaceRig, PlaceState, PlaceTuning
 from ..kinematics.compiled import FixedEntry
+from ..kinematics.legs import leg_geometry
 from .place_kernel import LEG_VECTORS, WORK_MATRICES, place_row
 from .turning import (
     GROUND_BAND,
@@ -106,7 +107,8 @@ class Placement:
                             float(centre), self.girdles[0], self.girdles[1],
                             _below(skel.parents, feet),
                             np.array([skel.end_sites.get(skel.names[f], np.zeros(3))
-                                      for f in feet], dtype=float).reshape(4, 3))
+                                      for f in feet], dtype=float).reshape(4, 3),
+                            *_tucks(character))
         self.state = PlaceState(np.zeros(3), np.zeros(1), np.zeros(1), self.lead.state,
                                 self.planter.state)
         self._place_row = FixedEntry(place_row)
@@ -151,6 +153,37 @@ class Placement:
                                    dt, yaw, yaw_prev, yaw_lead),
                         self.rig, TUNING, self.state, ramps, out)
         return out
+
+
+def _tucks(character: Character) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:class:`PlaceRig`'s ``tuck_joints``, ``tuck_turns`` and ``tuck_scales``: for each
+    leg whose digit the procedural IK carries in swing (:func:`leg_geometry`'s
+    ``carry``), the turns of the digit's joints and of the foot joint about +X that
+    carry makes at a full fold (a joint's turn is its bone's change of angle less the
+    bone above's, negated: a turn about +X swings a bone back), the first digit
+    joint's turn at a full fold in an untucked clip (its bone's fold less the bone
+    above's, negated), the tuck's full height and the foot joint's standing height."""
+    rest = character.skeleton.rest_positions
+    rows = []
+    for leg in character.legs:
+        geom = leg_geometry(character, leg)
+        d0, n = leg.ik_start + 3, len(geom.lengths)
+        if not geom.carry.any() or d0 >= n:
+            rows.append(([], [], (1.0, 1.0, 0.0)))
+            continue
+        phi = np.append(geom.carry[d0:], geom.foot_carry)  # the bones' and the foot's
+        turns = -np.diff(np.concatenate([[0.0], phi]))
+        scales = (-(geom.fold[d0] - geom.fold[d0 - 1]), geom.tuck_height,
+                  float(rest[leg.foot, 1]))
+        rows.append((list(leg.chain[d0:n + 1]), list(turns), scales))
+    k = max(1, max(len(r[0]) for r in rows))
+    joints = np.full((4, k), -1, dtype=np.int64)
+    turns = np.zeros((4, k))
+    scales = np.array([r[2] for r in rows], dtype=float)
+    for i, (js, ts, _) in enumerate(rows):
+        joints[i, :len(js)] = js
+        turns[i, :len(ts)] = ts
+    return joints, turns, scales
 
 
 def _below(parents, feet) -> np.ndarray:
