@@ -44,20 +44,10 @@ def _frequency(report) -> float:
     return report["cadence"] / math.sqrt(report["hip_height"] / GRAVITY)
 
 
-#: Known (strict): the horse's ambling gaits, measured now that every gait is (their
-#: strides were not, the appearance table skipped them too): the shared gait table
-#: gives the amble and rack shorter strides than the law (``stride`` 2.0 and 1.8
-#: against 2.3, the quicker steps of four-beat gaits), and the amble's legs' sweep
-#: at its body drop caps its stride further.
-SHORT_OF_THE_LAW = {("horse", "amble"): "0.70 of the law", ("horse", "rack"): "0.77 of the law"}
-
-
 def _cases():
     for cid in CHARACTERS:
         for gait in gait_table(load_character(cid)):
-            known = SHORT_OF_THE_LAW.get((cid, gait))
-            marks = [pytest.mark.xfail(strict=True, reason=known)] if known else []
-            yield pytest.param(cid, gait, id=f"{cid}-{gait}", marks=marks)
+            yield pytest.param(cid, gait, id=f"{cid}-{gait}")
 
 
 @pytest.mark.parametrize("character,gait", list(_cases()))
