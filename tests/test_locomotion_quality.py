@@ -23,7 +23,7 @@ import pytest
 from quadsim import list_characters, load_character
 from quadsim import simulate as api_simulate
 from quadsim.analysis import metrics as M
-from quadsim.analysis.appearance import appearance_report
+from quadsim.analysis.appearance import appearance_report, toe_positions
 from quadsim.locomotion import Command, QuadsimClampWarning, Script, simulate
 from quadsim.locomotion.gaits import auto_gaits, gait_table
 from quadsim.skeleton.anatomy import find_anatomy
@@ -263,7 +263,9 @@ def test_the_data_horses_fore_hooves_tuck_as_the_procedural_horses_do(speed):
                 assert max(w.min() for w in swings) <= DATA_TUCK[speed], leg.name
         else:
             assert max(w.min() for w in swings) <= -15.0, leg.name
-    assert appearance_report(m)["toe_below_ground_any_frame_mm"] <= 3.0
+    # the toe tips themselves (the data mode's report measures its feet at their joints,
+    # over the ground it recorded under them)
+    assert toe_positions(m)[..., 1].min() >= -0.003
 
 
 @pytest.mark.parametrize("speed", [4.0, 6.5, 12.0])
