@@ -18,11 +18,12 @@ import math
 
 from numba import njit
 
+from ..kinematics.chains import mul_into
 from .ground_kernel import ground_height
 
 
 @njit(cache=True, inline="always")
-def tuck_hooves(rig, ramps, tgt, contacts, L):
+def tuck_hooves(rig, ramps, tgt, contacts, L, G, P):
     """A swinging hoof tucks up behind its cannon as the procedural horse's does
     (``L`` of the digits' joints updated): the clips are baked untucked, so the
     digit is turned here by the procedural IK's carry, in proportion to the swing's
@@ -31,9 +32,9 @@ def tuck_hooves(rig, ramps, tgt, contacts, L):
     hangs its toe below its joint, and a clip played slower than it was baked
     brings the hoof lower in its swing). Run on the placed pose, the feet's held
     attitudes settled: a lifting hoof eased from its planted attitude is carried by
-    the digit's turn. Returns whether any leg turned (the caller's forward kinematics
-    then stale)."""
-    turned = False
+    the digit's turn; the world rotations ``G`` (J, 3, 3) and positions ``P`` (J, 3)
+    of the turned digits and of the joints below their feet are updated."""
+    parents, offsets = rig.parents, rig.offsets
     for i in range(4):
         j0 = rig.tuck_joints[i, 0]
         if j0 < 0 or contacts[i]:
@@ -45,7 +46,6 @@ def tuck_hooves(rig, ramps, tgt, contacts, L):
         f = min(max(fold, 0.0), 1.0) * min(max(up, 0.0), 1.0)
         if f <= 0.0:
             continue
-        turned = True
         for m in range(rig.tuck_joints.shape[1]):
             j = rig.tuck_joints[i, m]
             if j < 0:
@@ -55,4 +55,21 @@ def tuck_hooves(rig, ramps, tgt, contacts, L):
                 a1, a2 = L[j, r, 1], L[j, r, 2]
                 L[j, r, 1] = c * a1 + s * a2
                 L[j, r, 2] = c * a2 - s * a1
-    return turned
+            if m > 0:  # the digit's joints below its first move with it
+                _follow(parents, offsets, G, P, j)
+            mul_into(G[parents[j]], L[j], G[j])
+        for m in range(rig.below.shape[1]):  # and so do the joints below the foot
+            j = rig.below[i, m]
+            if j < 0:
+                break
+            _follow(parents, offsets, G, P, j)
+            mul_into(G[parents[j]], L[j], G[j])
+
+
+@njit(cache=True, inline="always")
+def _follow(parents, offsets, G, P, j):
+    """Joint ``j``'s world position from its parent's (``P`` updated)."""
+    p = parents[j]
+    for r in range(3):
+        P[j, r] = P[p, r] + G[p, r, 0] * offsets[j, 0] + G[p, r, 1] * offsets[j, 1] \
+            + G[p, r, 2] * offsets[j, 2]

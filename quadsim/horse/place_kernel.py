@@ -252,8 +252,7 @@ def place_row(frame, rig, tuning, state, ramps, out):
     rotations, ground = out.rotations, out.ground
     fk_row(rig.parents, rig.offsets, L, root, G, P)
     _hold_attitudes(rig, tuning, state.feet, ramps, G, P, L, M[14], rotations)
-    if tuck_hooves(rig, ramps, tgt, contacts, L):  # the legs below the digits moved
-        fk_row(rig.parents, rig.offsets, L, root, G, P)
+    tuck_hooves(rig, ramps, tgt, contacts, L, G, P)
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
     for i in range(4):
