@@ -267,7 +267,8 @@ def test_step_returns_a_frame_of_the_controller_protocol(horse, ctl):
     assert out.contacts.shape == (4,) and out.gait == "trot" == c.gait
     assert out.time == pytest.approx(1 / 30) == c.time
     assert out.speed == c.speed > 0 and out.heading == c.heading
-    assert set(out.extras) == {"pitch", "ground"} and out.extras["ground"].shape == (4,)
+    assert set(out.extras) == {"pitch", "ground", "toe_ground"}
+    assert out.extras["ground"].shape == out.extras["toe_ground"].shape == (4,)
     np.testing.assert_allclose(out.positions[0], out.root)
     with pytest.raises(InputError, match="dt must be > 0"):
         c.step(Command(speed=3.5), 0.0)

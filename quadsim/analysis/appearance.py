@@ -75,18 +75,27 @@ _LH = LEGS.index("LH")
 
 
 def _ground(motion) -> np.ndarray:
-    g = (getattr(motion, "extras", None) or {}).get("ground")
+    """The ground height under each foot (T, 4) (m): under its toe tip where the motion
+    records it, else under its joint, else 0."""
+    extras = getattr(motion, "extras", None) or {}
+    g = extras.get("toe_ground")
+    if g is None:
+        g = extras.get("ground")
     T = motion.n_frames
     return np.zeros((T, 4)) if g is None else np.asarray(g, dtype=float).reshape(T, 4)
 
 
 def ground_points(motion, anatomy: Anatomy) -> np.ndarray:
     """Where the anatomy's feet meet the ground, heights over the ground under them,
-    shape (T, 4, 3) (m): the toe tips on flat ground, the foot joints over
-    ``extras["ground"]`` on uneven ground (as
+    shape (T, 4, 3) (m): the toe tips on flat ground or over ``extras["toe_ground"]``,
+    the foot joints over ``extras["ground"]`` on uneven ground without it (as
     :func:`~quadsim.analysis.report.feet_over_ground`)."""
-    g = (getattr(motion, "extras", None) or {}).get("ground")
-    if g is None:
+    extras = getattr(motion, "extras", None) or {}
+    if extras.get("toe_ground") is not None:
+        feet = toe_positions(motion, anatomy)
+        feet[..., Y] -= _ground(motion)
+        return feet
+    if extras.get("ground") is None:
         return toe_positions(motion, anatomy)
     feet = motion.world_positions()[:, list(anatomy.feet)].copy()
     feet[..., Y] -= _ground(motion)

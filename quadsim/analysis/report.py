@@ -288,15 +288,20 @@ def feet_over_ground(motion) -> np.ndarray:
     (:meth:`~quadsim.skeleton.motion.Motion.contact_points`): a paw rolling over
     its toe at push-off lifts its joint while the tip stays planted. A motion
     made on uneven ground carries the ground's height under each foot *joint*
-    on each frame as ``extras["ground"]`` (T, 4) (the data-driven horse on
-    slopes, whose hooves stay level in stance: their toe tips touch and leave
-    the ground on the joints' frames); its foot joints are then measured from
-    that ground, so contacts on a ramp count as on the ground.
+    on each frame as ``extras["ground"]`` (T, 4), and may carry it under each toe
+    tip as ``extras["toe_ground"]`` (the data-driven horse does); its toe tips are
+    then measured from the ground under them, or else its foot joints from the
+    ground under those, so contacts on a ramp count as on the ground.
     """
-    ground = (getattr(motion, "extras", None) or {}).get("ground")
-    if ground is None:
-        return motion.contact_points()
-    feet = motion.foot_positions()
+    extras = getattr(motion, "extras", None) or {}
+    ground, feet = extras.get("toe_ground"), None
+    if ground is not None:
+        feet = motion.contact_points()
+    else:
+        ground = extras.get("ground")
+        if ground is None:
+            return motion.contact_points()
+        feet = motion.foot_positions()
     ground = np.asarray(ground, dtype=float)
     if ground.shape != feet.shape[:2]:
         raise ValueError(f"extras['ground'] has shape {ground.shape}, expected "

@@ -240,6 +240,8 @@ class PlacedPose(NamedTuple):
         the feet, their targets, the legs' top and middle joints, one spare point each.
     clearance : ndarray, shape (4,)
         Work space: each foot's height over the clip's ground (m).
+    toe_ground : ndarray, shape (4,)
+        Ground height under each foot's toe tip (m).
     """
 
     local_rotations: np.ndarray
@@ -251,6 +253,7 @@ class PlacedPose(NamedTuple):
     scratch: np.ndarray
     legs: np.ndarray
     clearance: np.ndarray
+    toe_ground: np.ndarray
 
 
 __all__ = ["FeetState", "LeadState", "PlaceFrame", "PlaceRig", "PlaceState", "PlaceTuning",

@@ -342,7 +342,7 @@ class HorseDataController:
         return Frame.owned(self.character.skeleton, self.time, out.root, out.local_rotations,
                            out.positions, float(self.steering.yaw), self._label, out.contacts,
                            self.speed, {"pitch": np.array(float(self.placement.state.pitch[0])),
-                                        "ground": out.ground})
+                                        "ground": out.ground, "toe_ground": out.toe_ground})
 
     def _advance(self, command: Command, dt: float | None):
         """One frame: the mode logic, then the placement; returns the
@@ -540,7 +540,8 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
     Motion
         ``int(round(duration * fps))`` frames with contacts, gait labels, foot
         joints and ``extras``: ``"heading"`` (T,) and ``"pitch"`` (T,) (rad),
-        ``"ground"`` (T, 4) the ground height under each foot (m).
+        ``"ground"`` (T, 4) the ground height under each foot joint and
+        ``"toe_ground"`` (T, 4) under each toe tip (m).
     """
     if isinstance(script, Command):
         script = Script.constant(script)
@@ -548,7 +549,7 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         raise InputError(f"duration and fps must be > 0, got {duration!r}, {fps!r}")
     n = int(round(duration * fps))
     ctl = HorseDataController(character, database, dt=1.0 / fps)
-    roots, rots, cons, gaits, heads, pitch, ground = [], [], [], [], [], [], []
+    roots, rots, cons, gaits, heads, pitch, ground, toe_ground = [], [], [], [], [], [], [], []
     for i in range(n):
         out = ctl._advance(script.command_at(i / fps), None)
         roots.append(out.root)
@@ -558,11 +559,12 @@ def simulate(character: Character, script: Script | Command, duration: float, fp
         heads.append(ctl.heading)
         pitch.append(ctl.pitch)
         ground.append(out.ground)
+        toe_ground.append(out.toe_ground)
     return Motion(character.skeleton, fps, np.array(roots), np.array(rots),
                   contacts=np.array(cons), gaits=np.array(gaits, dtype=object),
                   foot_joints=character.foot_joints,
                   extras={"heading": np.array(heads), "pitch": np.array(pitch),
-                          "ground": np.array(ground)})
+                          "ground": np.array(ground), "toe_ground": np.array(toe_ground)})
 
 
 __all__ = ["AUTO_GAITS", "HYSTERESIS", "LEAP_SPEED_MATCH", "RAMP_AHEAD", "STAND",

@@ -255,9 +255,15 @@ def place_row(frame, rig, tuning, state, ramps, out):
     tuck_hooves(rig, ramps, tgt, contacts, L, G, P)
     for j in range(J):
         quaternion_from_matrix(L[j], rotations[j])
+    toes = rig.toes
     for i in range(4):
         f = feet[i]
         ground[i] = ground_height(ramps, P[f, 0], P[f, 2])
+        tx, tz = P[f, 0], P[f, 2]  # and under its toe tip
+        for c in range(3):
+            tx += G[f, 0, c] * toes[i, c]
+            tz += G[f, 2, c] * toes[i, c]
+        out.toe_ground[i] = ground_height(ramps, tx, tz)
 
 
 @njit(cache=True, inline="always")

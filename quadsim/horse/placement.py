@@ -148,7 +148,7 @@ class Placement:
         empty = np.empty
         out = PlacedPose(empty((J, 3, 3)), empty((J, 4)), empty((J, 3)), empty(3),
                          empty(4, dtype=np.bool_), empty(4), self._scratch, self._legs,
-                         self._clearance)
+                         self._clearance, empty(4))
         self._place_row(PlaceFrame(local, local if first else local_prev, q, contacts, first,
                                    dt, yaw, yaw_prev, yaw_lead),
                         self.rig, TUNING, self.state, ramps, out)
