@@ -43,7 +43,9 @@ def _run(horse, script, duration, ctl):
 
 
 def _measured(m, skip=FPS):
-    feet = m.foot_positions()[skip:]
+    """The toe tips (T, 4, 3) from frame ``skip`` on and their measured contacts: a hoof
+    breaking over lifts its joint while its toe stays down."""
+    feet = m.contact_points()[skip:]
     c = foot_contacts(feet, m.fps)
     return feet, c
 
