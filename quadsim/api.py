@@ -189,7 +189,8 @@ def simulate(character, commands: Script | Command, *, seconds: float,
     -------
     Motion
         With planned contacts, gait labels and per-frame extras (the data
-        mode's ``extras["ground"]`` is the ground under each foot).
+        mode's ``extras["ground"]`` is the ground under each foot joint and
+        ``extras["toe_ground"]`` under each toe tip).
 
     Raises
     ------
