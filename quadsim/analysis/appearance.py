@@ -75,12 +75,9 @@ _LH = LEGS.index("LH")
 
 
 def _ground(motion) -> np.ndarray:
-    """The ground height under each foot (T, 4) (m): under its toe tip where the motion
-    records it, else under its joint, else 0."""
+    """Ground height (T, 4) (m) under each toe tip where recorded, else each foot joint."""
     extras = getattr(motion, "extras", None) or {}
-    g = extras.get("toe_ground")
-    if g is None:
-        g = extras.get("ground")
+    g = extras["toe_ground"] if extras.get("toe_ground") is not None else extras.get("ground")
     T = motion.n_frames
     return np.zeros((T, 4)) if g is None else np.asarray(g, dtype=float).reshape(T, 4)
 
@@ -91,13 +88,10 @@ def ground_points(motion, anatomy: Anatomy) -> np.ndarray:
     the foot joints over ``extras["ground"]`` on uneven ground without it (as
     :func:`~quadsim.analysis.report.feet_over_ground`)."""
     extras = getattr(motion, "extras", None) or {}
-    if extras.get("toe_ground") is not None:
+    if extras.get("toe_ground") is None and extras.get("ground") is not None:
+        feet = motion.world_positions()[:, list(anatomy.feet)].copy()
+    else:
         feet = toe_positions(motion, anatomy)
-        feet[..., Y] -= _ground(motion)
-        return feet
-    if extras.get("ground") is None:
-        return toe_positions(motion, anatomy)
-    feet = motion.world_positions()[:, list(anatomy.feet)].copy()
     feet[..., Y] -= _ground(motion)
     return feet
 
