@@ -325,7 +325,20 @@ def test_a_report_of_a_climb_measures_the_feet_from_the_slope(horse, db):
     lowered = feet_over_ground(climb)
     np.testing.assert_allclose(lowered[..., 1] + climb.extras["toe_ground"],
                                climb.contact_points()[..., 1])
-    # the ground under a toe tip 8 cm ahead of its joint on an 8 degree climb: about
-    # 11 mm higher than under the joint
+    # the ground under a toe tip (its end site ahead of the hoof joint, 8 cm) on an
+    # 8 degree climb: higher than under the joint by that times the slope (11 mm)
+    toe = float(horse.skeleton.end_sites[horse.foot_joints[0]][2])
     rise = climb.extras["toe_ground"][180:] - climb.extras["ground"][180:]
-    assert np.median(rise) == pytest.approx(0.08 * math.tan(math.radians(8.0)), abs=0.003)
+    assert np.median(rise) == pytest.approx(toe * math.tan(math.radians(8.0)), abs=0.003)
+
+
+def test_a_malformed_ground_record_is_named_in_the_error(horse, db):
+    """A motion whose recorded ground does not match its frames is refused with the
+    key at fault named, not measured against the wrong frames."""
+    from quadsim.analysis.metrics import feet_over_ground
+    from quadsim.horse.controller import simulate
+
+    m = simulate(horse, Command(speed=4.0), 0.5, 60, database=db)
+    m.extras["toe_ground"] = np.zeros((3, 4))
+    with pytest.raises(ValueError, match=r"extras\['toe_ground'\] has shape \(3, 4\)"):
+        feet_over_ground(m)

@@ -294,17 +294,13 @@ def feet_over_ground(motion) -> np.ndarray:
     ground under those, so contacts on a ramp count as on the ground.
     """
     extras = getattr(motion, "extras", None) or {}
-    ground, feet = extras.get("toe_ground"), None
-    if ground is not None:
-        feet = motion.contact_points()
-    else:
-        ground = extras.get("ground")
-        if ground is None:
-            return motion.contact_points()
-        feet = motion.foot_positions()
-    ground = np.asarray(ground, dtype=float)
+    key = "toe_ground" if extras.get("toe_ground") is not None else "ground"
+    if extras.get(key) is None:
+        return motion.contact_points()
+    feet = motion.contact_points() if key == "toe_ground" else motion.foot_positions()
+    ground = np.asarray(extras[key], dtype=float)
     if ground.shape != feet.shape[:2]:
-        raise ValueError(f"extras['ground'] has shape {ground.shape}, expected "
+        raise ValueError(f"extras[{key!r}] has shape {ground.shape}, expected "
                          f"{feet.shape[:2]} (the ground height under each foot, per frame)")
     out = np.array(feet)
     out[..., Y] -= ground

@@ -14,7 +14,14 @@ import math
 
 from quadsim.frames import GRAVITY
 from quadsim.locomotion.cpg import TWO_PI
-from quadsim.locomotion.rowmath import ahead_of_mid, frac, interp_leg, plan_inner, smooth_min
+from quadsim.locomotion.rowmath import (
+    ahead_of_mid,
+    frac,
+    interp_leg,
+    plan_inline,
+    plan_inner,
+    smooth_min,
+)
 from quadsim.locomotion.spine import flex_of, rate_step, state_of, target_of
 
 #: The bounding spine turns from one target to the other in 1 / (this many
@@ -124,8 +131,9 @@ LAND_ACCEL = 0.5 * GRAVITY
 #: reckoned at half a g, the trots met the guidance before their flights (the
 #: horse's trunk highest in the flight in 70 % of its half strides); at 0.75 g in
 #: all of them (81 % before; the leopard cub's in 86 %, 80 before), every horse
-#: walk, trot, pace, amble and rack within 5 g (3.9-5.0; 4.2-6.0 before), the cats'
-#: and the dog's within 4.7 (2.4-4.7; 2.2-4.4 before).
+#: walk, trot, pace, amble and rack within 5 g (3.9-5.0; 4.2-6.0 before; 4.0-4.8 once
+#: the amble and rack strode by Alexander's law), the cats' and the dog's within 4.7
+#: (2.4-4.7; 2.2-4.4 before).
 LAND_ACCEL_FREE = 0.75 * GRAVITY
 #: Only the gaits that do not bound are so guided, and only while a foot is
 #: down: the canter's and gallops' landings came out worse (the horse canter's
@@ -199,6 +207,14 @@ CEILING_JUMP_RATE = 2.0
 TAKE_OFF_TILT = 0.75
 
 
+@plan_inline
+def _leg_top(n, i, reach, dropped, flex, tilt):
+    """Height (m) of leg ``i``'s top joint over the ground, of row ``n``: standing,
+    less its girdle's drop ``dropped`` (m), raised by the spine's flexion ``flex``
+    (rad) and the girdle's ``tilt`` (m)."""
+    return reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
+
+
 @plan_inner
 def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, tilt, theta,
                freq):
@@ -224,7 +240,7 @@ def _reach_cap(n, g, left, right, ft, keys, c, sn, feet, reach, dropped, flex, t
         since = (theta[n, i] - ft.theta_td[n, i]) / (TWO_PI * freq)
         e = max(1.0 - since / LANDING_EASE, 0.0)
         r = (STANCE_REACH + (LANDING_REACH - STANCE_REACH) * e * e) * reach.radius[n, i]
-        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
+        top = _leg_top(n, i, reach, dropped, flex, tilt)
         cap = min(cap, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
         r = CROUCH_REACH * reach.radius[n, i]
         floor = max(floor, math.sqrt(max(r * r - dx * dx - dz * dz, 0.0)) - top)
@@ -246,7 +262,7 @@ def _landing_cap(n, g, left, right, ft, scratch, reach, dropped, flex, tilt, acc
             continue
         r = STANCE_REACH * reach.radius[n, i]
         high = math.sqrt(max(r * r - scratch.td_reach2[n, i], 0.0))
-        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
+        top = _leg_top(n, i, reach, dropped, flex, tilt)
         cap = min(cap, high - top + 0.5 * accel * tau * tau)
     return cap
 
@@ -282,7 +298,7 @@ def _ballistic_excess(n, g, left, right, ft, scratch, reach, dropped, flex, tilt
         r = reach.radius[n, i]
         tau = t
         high = math.sqrt(max(r * r - scratch.td_reach2[n, i], 0.0))
-        top = reach.top_height[n, i] - dropped + reach.flex_lift[n, i] * flex + tilt
+        top = _leg_top(n, i, reach, dropped, flex, tilt)
     if tau == math.inf or tau <= 0.0:
         return 0.0, tau
     return max(rise + rate * tau - 0.5 * GRAVITY * tau * tau - (high - top), 0.0), tau
